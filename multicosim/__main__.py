@@ -1,0 +1,104 @@
+"""The ``multicosim`` command.
+
+``multicosim serve MODULE:FIRMWARE --port N``   serve a firmware (component side)
+``multicosim participant MODULE:FACTORY``        run a participant (component side)
+``multicosim sweep``                             remove what killed runs left behind
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import inspect
+import logging
+import sys
+from collections.abc import Callable
+from typing import Any
+
+__all__ = ["main"]
+
+
+def _load(target: str) -> Any:
+    module_name, sep, attr = target.partition(":")
+    if not sep or not module_name or not attr:
+        raise SystemExit(f"error: expected MODULE:ATTRIBUTE, got {target!r}")
+    module = importlib.import_module(module_name)
+    obj: Any = module
+    for part in attr.split("."):
+        obj = getattr(obj, part)
+    return obj
+
+
+def _build(factory: Callable[..., Any], config: str | None) -> Any:
+    """Call ``factory``, decoding ``config`` (JSON) as its first parameter's type."""
+    if config is None:
+        return factory()
+    import msgspec
+
+    params = list(inspect.signature(factory).parameters.values())
+    if not params:
+        raise SystemExit(f"error: {factory!r} takes no configuration")
+    hints = inspect.get_annotations(factory, eval_str=True) if inspect.isfunction(factory) else {}
+    if inspect.isclass(factory):
+        hints = inspect.get_annotations(factory.__init__, eval_str=True)
+    tp = hints.get(params[0].name, Any)
+    return factory(msgspec.json.decode(config.encode(), type=tp))
+
+
+def _serve(args: argparse.Namespace) -> int:
+    from ._runtime import Firmware, serve
+
+    fw = _load(args.target)
+    if not isinstance(fw, Firmware):
+        raise SystemExit(f"error: {args.target} is not a firmware (use @multicosim.firmware)")
+    serve(fw, port=args.port, host=args.host)
+    return 0
+
+
+def _participant(args: argparse.Namespace) -> int:
+    from ._runtime import run_participant
+
+    run_participant(_build(_load(args.target), args.config))
+    return 0
+
+
+def _sweep(args: argparse.Namespace) -> int:
+    from ._local import sweep_stale_runs
+
+    killed = sweep_stale_runs()
+    print(f"removed {len(killed)} leftover process group(s)")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``multicosim`` command."""
+    parser = argparse.ArgumentParser(prog="multicosim", description=__doc__.splitlines()[0])
+    parser.add_argument("-v", "--verbose", action="store_true", help="log debug messages")
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser("serve", help="serve a firmware until the simulation stops it")
+    p.add_argument("target", help="MODULE:ATTRIBUTE of a @multicosim.firmware function")
+    p.add_argument("--port", type=int, default=0, help="port to serve on (0: any free port)")
+    p.add_argument("--host", default="127.0.0.1", help="address to bind (0.0.0.0 in containers)")
+    p.set_defaults(run=_serve)
+
+    p = sub.add_parser("participant", help="run a participant stepped by the simulation")
+    p.add_argument("target", help="MODULE:ATTRIBUTE of a participant factory")
+    p.add_argument("--config", help="JSON configuration passed to the factory")
+    p.set_defaults(run=_participant)
+
+    p = sub.add_parser("sweep", help="remove processes left behind by killed runs")
+    p.set_defaults(run=_sweep)
+
+    args = parser.parse_args(argv)
+    logging.basicConfig(
+        level=logging.DEBUG if args.verbose else logging.INFO,
+        format="%(asctime)s %(name)s %(levelname)s %(message)s",
+        stream=sys.stderr,
+    )
+    result: int = args.run(args)
+    return result
+
+
+if __name__ == "__main__":
+    sys.exit(main())

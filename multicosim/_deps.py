@@ -1,0 +1,20 @@
+"""Optional dependencies: import them on use, with an error naming the extra to install."""
+
+from __future__ import annotations
+
+import importlib
+from types import ModuleType
+
+from ._errors import DependencyMissingError
+
+__all__ = ["require"]
+
+
+def require(module: str, extra: str) -> ModuleType:
+    """Import ``module`` or raise DependencyMissingError naming ``multicosim[extra]``."""
+    try:
+        return importlib.import_module(module)
+    except ImportError as exc:
+        if exc.name is not None and module.split(".")[0] != exc.name.split(".")[0]:
+            raise  # the module exists but one of its own imports failed: show that
+        raise DependencyMissingError(module, extra) from exc

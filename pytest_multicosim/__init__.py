@@ -1,0 +1,6 @@
+"""The multicosim pytest plugin and its fixture libraries.
+
+Installing multicosim activates the plugin (``pytest11`` entry point
+``pytest_multicosim.plugin``): the ``--mcs-*`` options, the ``fidelity`` marker and the
+``mcs_*`` fixtures.
+"""

@@ -1,0 +1,110 @@
+"""The public surface: exported names, light imports, optional dependencies."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+
+import multicosim as mcs
+
+EXPECTED = {
+    "CommunicationNode",
+    "Component",
+    "ConfigurationError",
+    "DependencyMissingError",
+    "Firmware",
+    "FirmwareContext",
+    "FirmwareNode",
+    "FirmwareProcessComponent",
+    "FirmwareThreadComponent",
+    "InProcessFirmwareComponent",
+    "InProcessFirmwareNode",
+    "InProcessSimulation",
+    "InProcessSimulator",
+    "LocalEnvironment",
+    "Message",
+    "MessageTypeError",
+    "MulticosimError",
+    "Node",
+    "NodeCrashedError",
+    "NodeError",
+    "NodeId",
+    "NodeStartError",
+    "NodeTimeoutError",
+    "Participant",
+    "ParticipantComponent",
+    "ParticipantNode",
+    "ProcessComponent",
+    "ProcessNode",
+    "ProcessSimulation",
+    "ProcessSimulator",
+    "RemoteError",
+    "Simulation",
+    "SimulationStopped",
+    "Simulator",
+    "StepContext",
+    "Subscription",
+    "TraceError",
+    "TransportError",
+    "__version__",
+    "firmware",
+    "run_participant",
+    "serve",
+}
+
+
+def test_exported_names_are_the_intended_ones() -> None:
+    assert set(mcs.__all__) == EXPECTED
+    for name in mcs.__all__:
+        assert getattr(mcs, name) is not None, name
+
+
+def test_unknown_attribute_is_an_attribute_error() -> None:
+    with pytest.raises(AttributeError, match="no attribute 'Nope'"):
+        _ = mcs.Nope  # type: ignore[attr-defined]
+
+
+def test_import_multicosim_stays_light() -> None:
+    code = (
+        "import sys, multicosim as mcs; mcs.ProcessSimulator; "
+        "heavy = [m for m in ('docker', 'mujoco', 'mcap', 'pymavlink', 'rtamt') "
+        "if m in sys.modules]; print(heavy)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
+
+
+def test_every_error_derives_from_the_root() -> None:
+    for name in mcs.__all__:
+        obj = getattr(mcs, name)
+        if isinstance(obj, type) and issubclass(obj, Exception):
+            assert issubclass(obj, mcs.MulticosimError), name
+
+
+def test_dependency_missing_names_the_extra() -> None:
+    err = mcs.DependencyMissingError("mujoco", "mujoco")
+    assert "pip install 'multicosim[mujoco]'" in str(err)
+    assert isinstance(err, ImportError)
+
+
+def test_configuration_error_names_field_value_and_allowed() -> None:
+    err = mcs.ConfigurationError("timestep", -1.0, "a number in (0, 0.1]")
+    assert (err.field, err.value, err.allowed) == ("timestep", -1.0, "a number in (0, 0.1]")
+    assert str(err) == "timestep=-1.0 is invalid: expected a number in (0, 0.1]"
+
+
+def test_version_matches_package_metadata() -> None:
+    from importlib.metadata import version
+
+    assert mcs.__version__ == version("multicosim")
+
+
+def test_require_names_the_extra_for_a_missing_module() -> None:
+    from multicosim._deps import require
+
+    assert require("json", "core").dumps(1) == "1"
+    with pytest.raises(mcs.DependencyMissingError, match=r"multicosim\[trace\]") as info:
+        require("surely_not_installed_module", "trace")
+    assert (info.value.module, info.value.extra) == ("surely_not_installed_module", "trace")
