@@ -392,6 +392,21 @@ def _split_command(command: str | Sequence[str], field: str = "command") -> list
     return args
 
 
+def default_name(args: list[str]) -> str:
+    """A component name from its command: the target of ``python -m multicosim serve M:F``
+    (``f``), the module of ``python -m M``, the script's stem, or the program's name."""
+    for i, arg in enumerate(args):
+        if arg in ("serve", "participant") and i + 1 < len(args) and ":" in args[i + 1]:
+            return args[i + 1].rsplit(":", 1)[1].rsplit(".", 1)[-1].lower()
+    program = Path(args[0]).name
+    if program.startswith("python") and len(args) > 1:
+        if args[1] == "-m" and len(args) > 2:
+            return args[2].rsplit(".", 1)[-1]
+        if not args[1].startswith("-"):
+            return Path(args[1]).stem
+    return program
+
+
 def _check_port(port: int | None) -> None:
     if port is not None and (
         isinstance(port, bool) or not isinstance(port, int) or not 1 <= port <= 65535
@@ -580,7 +595,7 @@ class ProcessComponent:
         _check_positive("start_timeout", self.start_timeout)
         _check_positive("stop_timeout", self.stop_timeout)
         if self.name is None:
-            object.__setattr__(self, "name", Path(args[0]).name)
+            object.__setattr__(self, "name", default_name(args))
 
     def start(self, environment: LocalEnvironment) -> ProcessNode:
         """Start the process; with a handshake, return once it has joined the simulation."""
@@ -751,7 +766,7 @@ class FirmwareProcessComponent(Generic[MsgT, ReplyT]):
         for field in ("timeout", "start_timeout", "stop_timeout"):
             _check_positive(field, getattr(self, field))
         if self.name is None:
-            object.__setattr__(self, "name", Path(args[0]).name)
+            object.__setattr__(self, "name", default_name(args))
 
     def start(self, environment: LocalEnvironment) -> FirmwareNode[MsgT, ReplyT]:
         """Start the firmware process and wait for its handshake."""

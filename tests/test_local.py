@@ -398,3 +398,17 @@ def test_firmware_thread_component_runs_in_lockstep() -> None:
     with simulator.start() as simulation:
         report = simulation.get(node_id).send(testing.Drive(speed=1.5, steps=20))
     assert report == reference
+
+
+@pytest.mark.parametrize(
+    ("command", "name"),
+    [
+        ("python -m multicosim serve multicosim.testing:drive --port {port}", "drive"),
+        ("python -m multicosim participant multicosim.testing:Cart", "cart"),
+        ("python -m mypackage.world --fast", "world"),
+        ("python3 scripts/controller.py", "controller"),
+        ("/usr/bin/sleep 5", "sleep"),
+    ],
+)
+def test_default_component_names(command: str, name: str) -> None:
+    assert mcs.ProcessComponent(command).name == name
