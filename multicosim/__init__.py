@@ -55,14 +55,29 @@ _LAZY = {
     "ProcessNode": "._local",
     "ProcessSimulation": "._local",
     "ProcessSimulator": "._local",
+    # The paper's container classes; the Docker SDK loads only when one is used.
+    "AttachedComponent": ".docker",
+    "ContainerComponent": ".docker",
+    "ContainerNode": ".docker",
+    "ContainerSimulation": ".docker",
+    "ContainerSimulator": ".docker",
+    "FirmwareComponent": ".docker",
+    "Requirement": ".requirements",
+    "RequirementViolation": ".requirements",
 }
 
 __all__ = [
+    "AttachedComponent",
     "CommunicationNode",
     "Component",
     "ConfigurationError",
+    "ContainerComponent",
+    "ContainerNode",
+    "ContainerSimulation",
+    "ContainerSimulator",
     "DependencyMissingError",
     "Firmware",
+    "FirmwareComponent",
     "FirmwareContext",
     "FirmwareNode",
     "FirmwareProcessComponent",
@@ -89,6 +104,8 @@ __all__ = [
     "ProcessSimulation",
     "ProcessSimulator",
     "RemoteError",
+    "Requirement",
+    "RequirementViolation",
     "Simulation",
     "SimulationStopped",
     "Simulator",
@@ -129,6 +146,15 @@ if TYPE_CHECKING:
         run_participant,
         serve,
     )
+    from .docker import (
+        AttachedComponent,
+        ContainerComponent,
+        ContainerNode,
+        ContainerSimulation,
+        ContainerSimulator,
+        FirmwareComponent,
+    )
+    from .requirements import Requirement, RequirementViolation
 
 
 def __getattr__(name: str) -> Any:

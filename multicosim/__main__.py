@@ -3,6 +3,9 @@
 ``multicosim serve MODULE:FIRMWARE --port N``   serve a firmware (component side)
 ``multicosim participant MODULE:FACTORY``        run a participant (component side)
 ``multicosim sweep``                             remove what killed runs left behind
+``multicosim images build``                      build the container images locally
+``multicosim plot TRACE.mcap``                   plot a trace to a PNG
+``multicosim px4 sitl``                          PX4-compatible SITL on PX4's UDP ports
 """
 
 from __future__ import annotations
@@ -67,11 +70,38 @@ def _sweep(args: argparse.Namespace) -> int:
 
     killed = sweep_stale_runs()
     print(f"removed {len(killed)} leftover process group(s)")
+    try:
+        from .docker import sweep
+    except ImportError:  # pragma: no cover - the docker subpackage always ships
+        return 0
+    print(f"docker: {sweep().summary()}")
     return 0
+
+
+def _images_build(args: argparse.Namespace) -> int:
+    from .docker import build_images
+
+    tags = build_images(force=args.force, progress=print if args.verbose else None)
+    for tag in tags:
+        print(tag)
+    return 0
+
+
+def _plot(args: argparse.Namespace) -> int:
+    from .trace import plot_command
+
+    result: int = plot_command(args.trace, args.output)
+    return result
 
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``multicosim`` command."""
+    argv = sys.argv[1:] if argv is None else argv
+    if argv[:1] == ["px4"]:
+        # The PX4 tools own their options (``multicosim px4 sitl --speed 4 ...``).
+        from .px4.__main__ import main as px4_main
+
+        return px4_main(argv[1:])
     parser = argparse.ArgumentParser(prog="multicosim", description=__doc__.splitlines()[0])
     parser.add_argument("-v", "--verbose", action="store_true", help="log debug messages")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -79,7 +109,9 @@ def main(argv: list[str] | None = None) -> int:
     p = sub.add_parser("serve", help="serve a firmware until the simulation stops it")
     p.add_argument("target", help="MODULE:ATTRIBUTE of a @multicosim.firmware function")
     p.add_argument("--port", type=int, default=0, help="port to serve on (0: any free port)")
-    p.add_argument("--host", default="127.0.0.1", help="address to bind (0.0.0.0 in containers)")
+    p.add_argument(
+        "--host", default=None, help="address to bind (default: $MCS_BIND_HOST or 127.0.0.1)"
+    )
     p.set_defaults(run=_serve)
 
     p = sub.add_parser("participant", help="run a participant stepped by the simulation")
@@ -87,8 +119,22 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--config", help="JSON configuration passed to the factory")
     p.set_defaults(run=_participant)
 
-    p = sub.add_parser("sweep", help="remove processes left behind by killed runs")
+    p = sub.add_parser("sweep", help="remove processes and containers left by killed runs")
     p.set_defaults(run=_sweep)
+
+    sub.add_parser("px4", help="PX4 tools: `multicosim px4 sitl` runs a standalone SITL")
+
+    p = sub.add_parser("plot", help="plot a trace: planned vs flown path, altitude, robustness")
+    p.add_argument("trace", help="an MCAP trace written by multicosim")
+    p.add_argument("-o", "--output", default=None, help="PNG to write (default: TRACE.png)")
+    p.set_defaults(run=_plot)
+
+    images = sub.add_parser("images", help="container images").add_subparsers(
+        dest="images_command", required=True
+    )
+    p = images.add_parser("build", help="build multicosim's images locally (never pulls)")
+    p.add_argument("--force", action="store_true", help="rebuild even if up to date")
+    p.set_defaults(run=_images_build)
 
     args = parser.parse_args(argv)
     logging.basicConfig(

@@ -16,8 +16,8 @@ import signal
 import subprocess
 import sys
 import tempfile
-import time
 import threading
+import time
 import uuid
 import weakref
 from collections.abc import Callable, Mapping, Sequence
@@ -34,9 +34,11 @@ from ._errors import (
     MessageTypeError,
     MulticosimError,
     NodeCrashedError,
+    NodeError,
     NodeStartError,
     NodeTimeoutError,
     RemoteError,
+    SimulationStopped,
     TransportError,
 )
 from ._interfaces import Component, Node, NodeId, new_simulator_token
@@ -190,6 +192,7 @@ class Coordinator:
         self.address = f"tcp://{host}:{port}"
         self.step_timeout = DEFAULT_STEP_TIMEOUT
         self._expected: dict[str, tuple[int, Watch | None]] = {}
+        self._pollers: dict[zmq.Socket[Any] | None, zmq.Poller] = {}
         self._hellos: dict[str, wire.Hello] = {}
         self._watches: dict[str, Watch] = {}
 
@@ -204,7 +207,7 @@ class Coordinator:
         deadline = time.monotonic() + timeout
         watch = self._expected[name][1]
         while name not in self._hellos:
-            self.pump(_SLICE_MS)
+            self.pump(_SLICE_MS, None)
             if name in self._hellos:
                 break
             if watch is not None and (code := watch.poll()) is not None:
@@ -219,18 +222,39 @@ class Coordinator:
                 )
         return self._hellos[name]
 
-    def pump(self, timeout_ms: int, extra: Sequence[zmq.Socket[Any]] = ()) -> bool:
-        """Handle incoming frames for up to ``timeout_ms``; True if an ``extra`` socket is ready."""
-        poller = zmq.Poller()
-        poller.register(self.socket, zmq.POLLIN)
-        for sock in extra:
-            poller.register(sock, zmq.POLLIN)
-        events = dict(poller.poll(timeout_ms))
-        if self.socket in events:
-            while self.socket.poll(0):
-                ident, raw = self.socket.recv_multipart()
-                self._handle(ident.decode(), raw)
-        return any(sock in events for sock in extra)
+    def pump(self, timeout_ms: int, extra: zmq.Socket[Any] | None = None) -> bool | None:
+        """Handle incoming frames for up to ``timeout_ms``.
+
+        Returns True if ``extra`` became readable, False if only coordinator frames came,
+        None if nothing came at all (the moment for slower liveness checks).
+        """
+        poller = self._pollers.get(extra)
+        if poller is None:
+            # One poller per waiting socket: building one per wait costs a tenth of a
+            # round trip.
+            poller = self._pollers[extra] = zmq.Poller()
+            poller.register(self.socket, zmq.POLLIN)
+            if extra is not None:
+                poller.register(extra, zmq.POLLIN)
+        events = poller.poll(timeout_ms)
+        if not events:
+            return None
+        ready = False
+        for sock, _ in events:
+            if sock is self.socket:
+                self.drain()
+            else:
+                ready = True
+        return ready
+
+    def drain(self) -> None:
+        """Handle every frame already queued on the coordinator socket."""
+        while True:
+            try:
+                ident, raw = self.socket.recv_multipart(zmq.NOBLOCK)
+            except zmq.Again:
+                return
+            self._handle(ident.decode(), raw)
 
     def _handle(self, name: str, raw: bytes) -> wire.Yield | None:
         frame: wire.Hello | wire.Activate | wire.Yield = wire.to_coordinator.decode(raw)
@@ -364,15 +388,13 @@ class LocalEnvironment:
         with open(self.run_dir / "pids", "a") as f:
             f.write(f"{pid}\n")
 
-    def idle(self, *, deadline: float | None, extra: Sequence[zmq.Socket[Any]] = ()) -> bool:
-        """Wait a slice for frames; check participants are alive; True if ``extra`` is ready."""
+    def idle(self, extra: zmq.Socket[Any]) -> bool | None:
+        """Wait a slice for frames (see ``Coordinator.pump``); check participants when quiet."""
         if self._coordinator is None:
-            if extra:
-                return bool(zmq.select(list(extra), [], [], _SLICE_MS / 1000)[0])
-            time.sleep(_SLICE_MS / 1000)
-            return False
+            return True if extra.poll(_SLICE_MS) else None
         ready = self._coordinator.pump(_SLICE_MS, extra)
-        self._coordinator.check_alive()
+        if ready is None:
+            self._coordinator.check_alive()
         return ready
 
     def close(self) -> None:
@@ -669,7 +691,8 @@ class FirmwareNode(Generic[MsgT, ReplyT]):
                 "msg", msg, f"a {type_name(self.msgtype)} (the message type of {self.name!r})"
             )
         self._next_id += 1
-        call = wire.Call(self._next_id, type_name(type(msg)), encode(msg))
+        now = self._environment.scheduler.now_ns if self._environment is not None else 0
+        call = wire.Call(self._next_id, type_name(type(msg)), encode(msg), now)
         self._socket.send(wire.encoder.encode(call))
         answer = self._wait(call.id, self.timeout if timeout is None else timeout)
         if isinstance(answer, wire.Failure):
@@ -688,16 +711,23 @@ class FirmwareNode(Generic[MsgT, ReplyT]):
         answer: list[wire.Reply | wire.Failure | wire.Pong] = []
 
         def arrived() -> bool:
-            while not answer and sock.poll(0):
-                frame = wire.from_firmware.decode(sock.recv())
+            while not answer:
+                try:
+                    raw = sock.recv(zmq.NOBLOCK)
+                except zmq.Again:
+                    return False
+                frame = wire.from_firmware.decode(raw)
                 if frame.id == call_id:
                     answer.append(frame)
                 # Else: a late answer to a call that timed out; drop it.
-            return bool(answer)
+            return True
 
         def idle() -> None:
-            ready = env.idle(deadline=deadline, extra=[sock]) if env else sock.poll(_SLICE_MS)
-            if not ready:
+            if env is not None:
+                ready = env.idle(sock)
+            else:
+                ready = True if sock.poll(_SLICE_MS) else None
+            if ready is None or time.monotonic() > deadline:
                 self._check(deadline, timeout)
 
         def between() -> None:
@@ -707,9 +737,16 @@ class FirmwareNode(Generic[MsgT, ReplyT]):
         if env is None:
             while not arrived():
                 idle()
-        else:
-            with env.scheduler.lock():
-                env.scheduler.run(arrived, idle=idle, between=between)
+            return answer[0]
+        scheduler = env.scheduler
+        with scheduler.lock():
+            # While the clock is stopped (the usual case for a plain request/reply), wait
+            # on the sockets directly; the scheduler runs only once a driver activates.
+            while not scheduler.running:
+                idle()
+                if arrived():
+                    return answer[0]
+            scheduler.run(arrived, idle=idle, between=between)
         return answer[0]
 
     def _check(self, deadline: float, timeout: float) -> None:
@@ -924,13 +961,16 @@ class InProcessFirmwareNode(Generic[MsgT, ReplyT]):
         ctx = FirmwareContext(
             self.name, self._seed, fw.period_ns, LocalDriver(scheduler, self._member)
         )
+        ctx.time_ns = scheduler.now_ns
         with scheduler.lock():
             try:
                 try:
                     return fw.handler(checked, ctx)
                 finally:
                     ctx._finish()
-            except MulticosimError:
+            except (NodeError, SimulationStopped):
+                # The harness's own failures (a participant crashed or timed out while this
+                # firmware waited on the clock) surface as they would with a remote firmware.
                 raise
             except Exception as exc:
                 import traceback
@@ -1060,12 +1100,11 @@ class ProcessSimulation(NodeSet):
             _remove_tree(self.environment.run_dir)
 
 
-class ProcessSimulator:
-    """The local backend: components in-process or as local processes, in lockstep.
+EnvT = TypeVar("EnvT", bound=LocalEnvironment)
 
-    ``seed`` fixes every random source; ``realtime`` paces simulated time to wall time
-    (None: as fast as possible); ``run_dir`` keeps logs there instead of a temporary folder.
-    """
+
+class LocalSimulatorBase(Generic[EnvT]):
+    """What the lockstep simulators share: validated settings, ``add``, starting in order."""
 
     def __init__(
         self,
@@ -1082,11 +1121,12 @@ class ProcessSimulator:
         self.realtime = realtime
         self.run_dir = Path(run_dir) if run_dir is not None else None
         self._token = new_simulator_token()
-        self._components: list[tuple[NodeId[Any], Component[LocalEnvironment, Any]]] = []
+        self._components: list[tuple[NodeId[Any], Any]] = []
+        self._names: set[str] = set()
         self._started = False
 
     @overload
-    def add(self, component: Component[LocalEnvironment, NodeT]) -> NodeId[NodeT]: ...
+    def add(self, component: Component[EnvT, NodeT]) -> NodeId[NodeT]: ...
     @overload
     def add(self, component: Component[None, NodeT]) -> NodeId[NodeT]: ...
     def add(self, component: Any) -> NodeId[Any]:
@@ -1096,14 +1136,18 @@ class ProcessSimulator:
         if not callable(getattr(component, "start", None)):
             raise ConfigurationError("component", component, "an object with start(environment)")
         name = str(getattr(component, "name", None) or type(component).__name__)
-        if any(nid.name == name for nid, _ in self._components):
-            raise ConfigurationError("name", name, "a name not used by another component")
+        # A component may run several nodes (an attached container stack): all names count.
+        names_of = getattr(component, "node_names", None)
+        names = {name, *(names_of() if callable(names_of) else ())}
+        for taken in sorted(names & self._names):
+            raise ConfigurationError("name", taken, "a name not used by another component")
+        self._names.update(names)
         node_id: NodeId[Any] = NodeId(self._token, len(self._components), name)
         self._components.append((node_id, component))
         return node_id
 
-    def start(self) -> ProcessSimulation:
-        """Start every component in add order; on failure stop those started, then raise."""
+    def _new_run(self) -> tuple[str, Path]:
+        """Mark the simulator started; make the run's id and directory."""
         if self._started:
             raise MulticosimError(
                 "this simulator was already started; create a new simulator for another run"
@@ -1114,6 +1158,31 @@ class ProcessSimulator:
         run_dir = base / run_id
         run_dir.mkdir(parents=True)
         (run_dir / "owner").write_text(str(os.getpid()))
+        return run_id, run_dir
+
+    def _start_components(self, simulation: ProcessSimulation, environment: EnvT) -> None:
+        """Start every component in add order; on failure stop those started, then raise."""
+        try:
+            for node_id, component in self._components:
+                simulation._add_node(node_id, _start_component(component, environment))
+        except BaseException as exc:
+            try:
+                simulation.stop()
+            except BaseExceptionGroup as group:
+                exc.add_note(f"stopping the partial simulation also failed: {group!r}")
+            raise
+
+
+class ProcessSimulator(LocalSimulatorBase[LocalEnvironment]):
+    """The local backend: components in-process or as local processes, in lockstep.
+
+    ``seed`` fixes every random source; ``realtime`` paces simulated time to wall time
+    (None: as fast as possible); ``run_dir`` keeps logs there instead of a temporary folder.
+    """
+
+    def start(self) -> ProcessSimulation:
+        """Start every component in add order; on failure stop those started, then raise."""
+        run_id, run_dir = self._new_run()
         environment = LocalEnvironment(
             run_id=run_id,
             run_dir=run_dir,
@@ -1122,16 +1191,7 @@ class ProcessSimulator:
         )
         simulation = ProcessSimulation(self._token, environment, self.run_dir is not None)
         simulation._add_cleanup("the clock and sockets", simulation._finish)
-        try:
-            for node_id, component in self._components:
-                node = _start_component(component, environment)
-                simulation._add_node(node_id, node)
-        except BaseException as exc:
-            try:
-                simulation.stop()
-            except BaseExceptionGroup as group:
-                exc.add_note(f"stopping the partial simulation also failed: {group!r}")
-            raise
+        self._start_components(simulation, environment)
         return simulation
 
 

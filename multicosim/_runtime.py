@@ -270,7 +270,9 @@ class Firmware(Generic[MsgT, ReplyT]):
 
         parser = argparse.ArgumentParser(prog=self.name, description=f"serve {self!r}")
         parser.add_argument("--port", type=int, default=0, help="port to serve on (0: any)")
-        parser.add_argument("--host", default="127.0.0.1", help="address to bind")
+        parser.add_argument(
+            "--host", default=default_bind_host(), help="address to bind (env MCS_BIND_HOST)"
+        )
         args = parser.parse_args(argv)
         serve(self, port=args.port, host=args.host)
 
@@ -334,9 +336,14 @@ class Connection:
         self.socket = self._zctx.socket(zmq.DEALER)
         self.socket.setsockopt(zmq.LINGER, 0)
         self.socket.setsockopt(zmq.ROUTING_ID, name.encode())
+        # Heartbeats notice a coordinator that vanished without closing its connection.
+        self.socket.setsockopt(zmq.HEARTBEAT_IVL, 1000)
+        self.socket.setsockopt(zmq.HEARTBEAT_TIMEOUT, 5000)
+        # In a container the parent never changes (it is the init process), so a lost
+        # connection is how a component learns that its host was killed.
+        self.monitor = self.socket.get_monitor_socket(zmq.EVENT_DISCONNECTED)
         self.socket.connect(address)
         self._ppid = os.getppid()
-        self._zmq = zmq
 
     def send(self, frame: wire.Hello | wire.Activate | wire.Yield) -> None:
         """Send one frame to the coordinator."""
@@ -349,15 +356,30 @@ class Connection:
         but it ends when the process that started this one has gone.
         """
         while not self.socket.poll(_PARENT_CHECK_MS):
-            if os.getppid() != self._ppid:
-                raise SimulationStopped(f"{self.name}: the simulation host has exited")
+            if self.orphaned():
+                raise SimulationStopped(f"{self.name}: the simulation host has gone")
         frame: wire.Step | wire.Stop = wire.to_participant.decode(self.socket.recv())
         if isinstance(frame, wire.Stop):
             raise SimulationStopped(f"{self.name}: the simulation was stopped")
         return frame
 
+    def orphaned(self) -> bool:
+        """True once the host is gone: our parent changed or the coordinator disconnected."""
+        if os.getppid() != self._ppid:
+            return True
+        import zmq
+        from zmq.utils.monitor import recv_monitor_message
+
+        while self.monitor.poll(0):
+            event = recv_monitor_message(self.monitor, zmq.NOBLOCK)
+            if event["event"] == zmq.EVENT_DISCONNECTED:
+                return True
+        return False
+
     def close(self) -> None:
-        """Close the socket."""
+        """Close the socket and its monitor."""
+        self.socket.disable_monitor()
+        self.monitor.close(0)
         self.socket.close(0)
 
 
@@ -445,6 +467,11 @@ class LocalParticipantLink:
 # -- component programs ---------------------------------------------------------------------
 
 
+def default_bind_host() -> str:
+    """Where a firmware binds unless told: MCS_BIND_HOST (0.0.0.0 in images), else loopback."""
+    return os.environ.get(wire.ENV_BIND_HOST, "127.0.0.1")
+
+
 def _environment() -> tuple[str | None, str, int]:
     address = os.environ.get(wire.ENV_COORDINATOR)
     name = os.environ.get(wire.ENV_NODE_NAME, "component")
@@ -482,8 +509,8 @@ def run_participant(participant: Participant) -> None:
             outbox, topics = ctx._take()
             conn.send(wire.Yield(step.time_ns + period_ns, pending + _outbox(outbox), topics))
             pending = []
-    except SimulationStopped:
-        log.debug("%s stopped", name)
+    except SimulationStopped as exc:
+        log.info("%s", exc)
     finally:
         conn.close()
 
@@ -492,7 +519,7 @@ def serve(
     fw: Firmware[Any, Any],
     *,
     port: int = 0,
-    host: str = "127.0.0.1",
+    host: str | None = None,
     stop: threading.Event | None = None,
     zctx: zmq.Context[Any] | None = None,
     environment: tuple[str | None, str, int] | None = None,
@@ -506,6 +533,7 @@ def serve(
     import zmq
 
     address, name, seed = environment or _environment()
+    host = host or default_bind_host()
     if stop is None:
         _install_sigterm()
     zctx = zctx or zmq.Context.instance()
@@ -518,11 +546,12 @@ def serve(
     conn = Connection(address, name, zctx) if address else None
     poller = zmq.Poller()
     poller.register(rpc, zmq.POLLIN)
+    # Logged before the handshake, so that the line is in the log of every ready firmware.
+    log.info("%s serving %r on %s:%d", name, fw, host, bound)
     if conn is not None:
         poller.register(conn.socket, zmq.POLLIN)
         conn.send(wire.Hello(name, fw.period_ns, True, [], os.getpid(), bound))
     ppid = os.getppid()
-    log.info("%s serving %r on %s:%d", name, fw, host, bound)
     try:
         while stop is None or not stop.is_set():
             events = dict(poller.poll(200 if stop is not None else _PARENT_CHECK_MS))
@@ -542,12 +571,18 @@ def serve(
                 else:
                     driver = RemoteDriver(conn) if conn is not None else None
                     ctx = FirmwareContext(name, derive_seed(seed, name), fw.period_ns, driver)
+                    ctx.time_ns = request.time_ns
                     answer = handle_call(fw, request, ctx)
                 rpc.send_multipart([ident, wire.encoder.encode(answer)])
-            if stop is None and not events and os.getppid() != ppid:
+            if (
+                stop is None
+                and not events
+                and (os.getppid() != ppid or (conn is not None and conn.orphaned()))
+            ):
+                log.info("%s: the simulation host has gone", name)
                 break
-    except SimulationStopped:
-        pass
+    except SimulationStopped as exc:
+        log.info("%s", exc)
     finally:
         rpc.close(0)
         if conn is not None:

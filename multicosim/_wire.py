@@ -14,6 +14,7 @@ ENV_COORDINATOR = "MCS_COORDINATOR"
 ENV_NODE_NAME = "MCS_NODE_NAME"
 ENV_SEED = "MCS_SEED"
 ENV_RUN_ID = "MCS_RUN_ID"
+ENV_BIND_HOST = "MCS_BIND_HOST"  # default address a firmware binds (images set 0.0.0.0)
 
 
 class Hello(msgspec.Struct, tag="hello", frozen=True):
@@ -57,11 +58,12 @@ ToParticipant = Step | Stop
 
 
 class Call(msgspec.Struct, tag="call", frozen=True):
-    """Host -> firmware: handle ``payload`` (a message of type ``type``)."""
+    """Host -> firmware: handle ``payload`` (a message of type ``msgtype``) at ``time_ns``."""
 
     id: int
     msgtype: str
     payload: bytes
+    time_ns: int = 0  # the simulated time when the call was made
 
 
 class Ping(msgspec.Struct, tag="ping", frozen=True):

@@ -7,9 +7,11 @@ Installed packages activate it through the ``pytest11`` entry point. Options liv
 from __future__ import annotations
 
 import atexit
+import contextlib
 import dataclasses
 import importlib.util
 import logging
+import os
 import re
 import shlex
 import shutil
@@ -96,11 +98,26 @@ def pytest_addoption(parser: pytest.Parser) -> None:
         default=None,
         help="which tests keep their traces: failed (default), all or none",
     )
+    group.addoption(
+        "--mcs-px4-image",
+        dest="mcs_px4_image",
+        default=None,
+        help="a PX4 SITL container image for the real-PX4 tests (env MCS_PX4_IMAGE)",
+    )
+    group.addoption(
+        "--mcs-px4-binary",
+        dest="mcs_px4_binary",
+        default=None,
+        help="a PX4 SITL binary (build/px4_sitl_default/bin/px4) for the real-PX4 tests "
+        "(env MCS_PX4_BINARY)",
+    )
     parser.addini("mcs_fidelity", "default for --mcs-fidelity", default="low")
     parser.addini("mcs_backend", "default for --mcs-backend", default="process")
     parser.addini("mcs_seed", "default for --mcs-seed", default="0")
     parser.addini("mcs_artifacts", "default for --mcs-artifacts", default="mcs-artifacts")
     parser.addini("mcs_keep_traces", "default for --mcs-keep-traces", default="failed")
+    parser.addini("mcs_px4_image", "default for --mcs-px4-image", default="")
+    parser.addini("mcs_px4_binary", "default for --mcs-px4-binary", default="")
 
 
 def _value(config: pytest.Config, name: str) -> tuple[str, str]:
@@ -182,6 +199,8 @@ def pytest_unconfigure(config: pytest.Config) -> None:
     registry = config.stash.get(registry_key, None)
     if registry is not None:
         registry.stop_all()
+        # The safety net is no longer needed; in-process runs (pytester) would pile them up.
+        atexit.unregister(registry.stop_all)
 
 
 def pytest_sessionstart(session: pytest.Session) -> None:
@@ -190,6 +209,24 @@ def pytest_sessionstart(session: pytest.Session) -> None:
     killed = sweep_stale_runs()
     if killed:
         log.warning("removed %d process group(s) left by killed runs", len(killed))
+    _sweep_docker(include_current_process=False)
+
+
+def pytest_sessionfinish(session: pytest.Session) -> None:
+    # A session run inside another test (pytester) must not touch the outer test's
+    # containers; only a top-level session removes what this process left behind.
+    if os.environ.get("PYTEST_CURRENT_TEST") is None:
+        _sweep_docker(include_current_process=True)
+
+
+def _sweep_docker(*, include_current_process: bool) -> None:
+    if importlib.util.find_spec("docker") is None:
+        return
+    from multicosim.docker import sweep
+
+    report = sweep(include_current_process=include_current_process)
+    if report.containers or report.networks:
+        log.warning("docker sweep: %s", report.summary())
 
 
 def pytest_report_header(config: pytest.Config) -> str:
@@ -202,7 +239,8 @@ def pytest_report_header(config: pytest.Config) -> str:
 
 def pytest_generate_tests(metafunc: pytest.Metafunc) -> None:
     marker = metafunc.definition.get_closest_marker("fidelity")
-    if marker is None and "mcs_fidelity" not in metafunc.fixturenames:
+    wanted = {"mcs_fidelity", "mcs_fresh_simulation"} & set(metafunc.fixturenames)
+    if marker is None and not wanted:
         return
     settings = metafunc.config.stash[settings_key]
     listed: tuple[str, ...] = FIDELITY_LEVELS
@@ -220,8 +258,8 @@ def pytest_generate_tests(metafunc: pytest.Metafunc) -> None:
             listed = parse_fidelity(",".join(marker.args), source=where)
         except pytest.UsageError as exc:
             raise pytest.Collector.CollectError(str(exc)) from None
-        if "mcs_fidelity" not in metafunc.fixturenames:
-            metafunc.fixturenames.append("mcs_fidelity")
+    if "mcs_fidelity" not in metafunc.fixturenames:
+        metafunc.fixturenames.append("mcs_fidelity")
     params = [
         pytest.param(
             level,
@@ -234,13 +272,15 @@ def pytest_generate_tests(metafunc: pytest.Metafunc) -> None:
         )
         for level in settings.fidelity
     ]
-    metafunc.parametrize("mcs_fidelity", params, scope="function")
+    # Session scope: Hypothesis accepts it in @given tests (it is the same for every
+    # example), and tests are grouped by level.
+    metafunc.parametrize("mcs_fidelity", params, scope="session")
 
 
 # -- fixtures -------------------------------------------------------------------------------
 
 
-@pytest.fixture
+@pytest.fixture(scope="session")
 def mcs_settings(request: pytest.FixtureRequest) -> Settings:
     """The validated multicosim options of this run."""
     return request.config.stash[settings_key]
@@ -252,13 +292,13 @@ def mcs_fidelity(request: pytest.FixtureRequest) -> str:
     return str(getattr(request, "param", request.config.stash[settings_key].fidelity[0]))
 
 
-@pytest.fixture
+@pytest.fixture(scope="session")
 def mcs_backend(mcs_settings: Settings) -> str:
     """The selected backend: ``process`` or ``docker``."""
     return mcs_settings.backend
 
 
-@pytest.fixture
+@pytest.fixture(scope="session")
 def mcs_seed(mcs_settings: Settings) -> int:
     """The seed that fixes every random source of this test's simulations."""
     return mcs_settings.seed
@@ -311,8 +351,15 @@ class _TestSimulations:
         self.simulations: list[Any] = []
 
     def track(self, simulation: SimT) -> SimT:
-        """Stop ``simulation`` when the test ends."""
+        """Stop ``simulation`` when the test ends (and record it for the test's trace)."""
         self.simulations.append(self._registry.track(simulation))
+        from multicosim import trace
+
+        test_trace = trace.active()
+        if test_trace is not None:
+            # A simulation without a simulated clock has nothing to record.
+            with contextlib.suppress(MulticosimError):
+                test_trace.attach(simulation)
         return simulation
 
     def start(self, simulator: Any) -> Any:
@@ -362,8 +409,9 @@ def mcs_simulator(
 ) -> _TrackedSimulator:
     """A fresh simulator of the selected backend, seeded; its simulation always stops."""
     if mcs_backend == "docker":
-        docker_backend = importlib.import_module("multicosim.docker")
-        inner: Any = docker_backend.ContainerSimulator(seed=mcs_seed)
+        from multicosim.docker import ContainerSimulator
+
+        inner: Any = ContainerSimulator(seed=mcs_seed)
     else:
         from multicosim._local import ProcessSimulator
 
@@ -371,7 +419,68 @@ def mcs_simulator(
     return _TrackedSimulator(inner, mcs_simulations)
 
 
-# -- reports --------------------------------------------------------------------------------
+@pytest.fixture(scope="session")
+def mcs_fresh_simulation() -> Any:
+    """A new simulation per Hypothesis example, stopped when the example ends.
+
+    Session-scoped on purpose: Hypothesis rejects function-scoped fixtures in ``@given``
+    tests because they are not reset between examples::
+
+        @given(mission=rover_missions())
+        def test_x(mcs_fresh_simulation, mission):
+            with mcs_fresh_simulation(rover.Rover) as simulation: ...
+    """
+    from multicosim.strategies import FreshSimulations
+
+    return FreshSimulations()
+
+
+# -- traces and reports ---------------------------------------------------------------------
+
+trace_key = pytest.StashKey[Any]()
+
+
+def _fidelity_of(item: pytest.Item) -> str | None:
+    callspec = getattr(item, "callspec", None)
+    return None if callspec is None else callspec.params.get("mcs_fidelity")
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_call(item: pytest.Item) -> Generator[None, None, None]:
+    from multicosim import trace
+
+    settings = item.config.stash[settings_key]
+    test_trace = trace.TestTrace(
+        metadata={
+            "test": item.nodeid,
+            "seed": settings.seed,
+            "fidelity": _fidelity_of(item) or settings.fidelity[0],
+            "backend": settings.backend,
+        },
+        record=settings.keep_traces != "none",
+    )
+    item.stash[trace_key] = test_trace
+    with trace.activate(test_trace):
+        return (yield)
+
+
+def _save_trace(
+    item: pytest.Item, call: pytest.CallInfo[None], dest: Path, replay: str
+) -> list[Path]:
+    test_trace = item.stash.get(trace_key, None)
+    if test_trace is None:
+        return []
+    from multicosim import trace
+
+    example = None
+    if call.excinfo is not None:
+        example = trace.falsifying_example(call.excinfo.value)
+    try:
+        saved: list[Path] = test_trace.save(dest, failing_example=example, replay=replay)
+    except MulticosimError as exc:
+        log.warning("could not save the trace of %s: %s", item.nodeid, exc)
+        return []
+    return saved
 
 
 def _slug(nodeid: str) -> str:
@@ -383,22 +492,31 @@ def pytest_runtest_makereport(
     item: pytest.Item, call: pytest.CallInfo[None]
 ) -> Generator[None, pytest.TestReport, pytest.TestReport]:
     report: pytest.TestReport = yield
-    if not report.failed:
-        return report
     settings = item.config.stash[settings_key]
-    fidelity = None
-    callspec = getattr(item, "callspec", None)
-    if callspec is not None:
-        fidelity = callspec.params.get("mcs_fidelity")
+    fidelity = _fidelity_of(item)
+    # Quoted for a POSIX shell: parametrized ids may hold quotes, spaces or brackets.
+    replay = f"pytest {shlex.quote(item.nodeid)} {settings.replay_args(fidelity)}"
+    dest = settings.artifacts / _slug(item.nodeid)
+    if not report.failed:
+        # --mcs-keep-traces=all keeps what passing tests left too (without a report section).
+        passed_view = item.stash.get(_view_key, None)
+        if settings.keep_traces == "all" and report.when == "call":
+            if passed_view is not None:
+                _save_logs(passed_view, dest)
+            _save_trace(item, call, dest, replay)
+        return report
     lines = [
         f"seed {settings.seed}, fidelity {fidelity or ','.join(settings.fidelity)}, "
         f"backend {settings.backend}",
-        # Quoted for a POSIX shell: parametrized ids may hold quotes, spaces or brackets.
-        f"replay: pytest {shlex.quote(item.nodeid)} {settings.replay_args(fidelity)}",
+        f"replay: {replay}",
     ]
+    if settings.keep_traces != "none" and report.when == "call":
+        for path in _save_trace(item, call, dest, replay):
+            kind = "plot" if path.suffix == ".png" else "trace"
+            lines.append(f"{kind}: {path}")
     view = item.stash.get(_view_key, None)
     if view is not None and settings.keep_traces != "none":
-        saved = _save_logs(view, settings.artifacts / _slug(item.nodeid))
+        saved = _save_logs(view, dest)
         for name, (path, tail) in saved.items():
             lines.append(f"--- {name}: last output (full log: {path}) ---")
             lines.append(tail)

@@ -10,6 +10,14 @@ import pytest
 import multicosim as mcs
 
 EXPECTED = {
+    "AttachedComponent",
+    "ContainerComponent",
+    "ContainerNode",
+    "ContainerSimulation",
+    "ContainerSimulator",
+    "FirmwareComponent",
+    "Requirement",
+    "RequirementViolation",
     "CommunicationNode",
     "Component",
     "ConfigurationError",

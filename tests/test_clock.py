@@ -180,3 +180,19 @@ def test_firmware_without_clock_cannot_step() -> None:
     ctx = mcs.FirmwareContext("lonely", 0, 10, None)
     with pytest.raises(mcs.MulticosimError, match="without a simulation clock"):
         ctx.step()
+
+
+@mcs.firmware(msgtype=testing.Echo)
+def _clock_reader(msg: testing.Echo, ctx: mcs.FirmwareContext) -> float:
+    return ctx.time
+
+
+def test_a_handler_starts_at_the_current_simulated_time() -> None:
+    simulator = mcs.ProcessSimulator()
+    simulator.add(mcs.ParticipantComponent(testing.Cart, name="cart"))
+    inproc = simulator.add(mcs.InProcessFirmwareComponent(_clock_reader))
+    threaded = simulator.add(mcs.FirmwareThreadComponent(_clock_reader, name="threaded"))
+    with simulator.start() as simulation:
+        simulation.advance(0.25)
+        assert simulation.get(inproc).send(testing.Echo(text="")) == pytest.approx(0.25)
+        assert simulation.get(threaded).send(testing.Echo(text="")) == pytest.approx(0.25)

@@ -1,0 +1,85 @@
+"""The Docker backend: the paper's container classes on the Docker SDK.
+
+Needs the ``docker`` extra (``pip install 'multicosim[docker]'``) and a running engine.
+The SDK is imported when a class is first used, so that component programs running inside
+an image (which import ``multicosim.docker._selftest``, for example) do not need it.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+_LAZY = {
+    "AttachedComponent": "._components",
+    "AttachedNode": "._components",
+    "ContainerComponent": "._components",
+    "ContainerEnvironment": "._components",
+    "ContainerFirmwareNode": "._components",
+    "ContainerNode": "._components",
+    "FirmwareComponent": "._components",
+    "ContainerSimulation": "._simulator",
+    "ContainerSimulator": "._simulator",
+    "EngineUnavailableError": "._engine",
+    "ImageMissingError": "._engine",
+    "BASE_IMAGE": "._images",
+    "RUNTIME_IMAGE": "._images",
+    "build_images": "._images",
+    "SweepReport": "._sweep",
+    "engine_available": "._sweep",
+    "sweep": "._sweep",
+}
+_RENAMED = {"build_images": "build"}
+
+__all__ = [
+    "BASE_IMAGE",
+    "RUNTIME_IMAGE",
+    "AttachedComponent",
+    "AttachedNode",
+    "ContainerComponent",
+    "ContainerEnvironment",
+    "ContainerFirmwareNode",
+    "ContainerNode",
+    "ContainerSimulation",
+    "ContainerSimulator",
+    "EngineUnavailableError",
+    "FirmwareComponent",
+    "ImageMissingError",
+    "SweepReport",
+    "build_images",
+    "engine_available",
+    "sweep",
+]
+
+if TYPE_CHECKING:
+    from ._components import AttachedComponent as AttachedComponent
+    from ._components import AttachedNode as AttachedNode
+    from ._components import ContainerComponent as ContainerComponent
+    from ._components import ContainerEnvironment as ContainerEnvironment
+    from ._components import ContainerFirmwareNode as ContainerFirmwareNode
+    from ._components import ContainerNode as ContainerNode
+    from ._components import FirmwareComponent as FirmwareComponent
+    from ._engine import EngineUnavailableError as EngineUnavailableError
+    from ._engine import ImageMissingError as ImageMissingError
+    from ._images import BASE_IMAGE as BASE_IMAGE
+    from ._images import RUNTIME_IMAGE as RUNTIME_IMAGE
+    from ._images import build as build_images
+    from ._simulator import ContainerSimulation as ContainerSimulation
+    from ._simulator import ContainerSimulator as ContainerSimulator
+    from ._sweep import SweepReport as SweepReport
+    from ._sweep import engine_available as engine_available
+    from ._sweep import sweep as sweep
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'multicosim.docker' has no attribute {name!r}")
+    import importlib
+
+    value = getattr(importlib.import_module(module, __name__), _RENAMED.get(name, name))
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)

@@ -1,0 +1,186 @@
+"""The Docker engine connection, the labels every resource carries, and their errors."""
+
+from __future__ import annotations
+
+import functools
+import os
+import socket
+import uuid
+from typing import Any
+
+from .._errors import DependencyMissingError, MulticosimError, NodeStartError
+
+try:
+    import docker
+    import docker.errors
+except ImportError as exc:  # pragma: no cover - exercised only without the extra
+    raise DependencyMissingError("docker", "docker") from exc
+
+__all__ = [
+    "LABEL_OWNER",
+    "LABEL_RUN",
+    "LABEL_SESSION",
+    "APIError",
+    "EngineUnavailableError",
+    "ImageMissingError",
+    "ImageNotFound",
+    "NotFound",
+    "client",
+    "labels",
+    "owner_alive",
+    "owner_id",
+    "require_image",
+    "session_id",
+]
+
+# The SDK's exceptions, for the other modules (which must not import the SDK before this
+# module has turned its absence into a DependencyMissingError).
+APIError = docker.errors.APIError
+NotFound = docker.errors.NotFound
+ImageNotFound = docker.errors.ImageNotFound
+
+LABEL_RUN = "multicosim.run"
+LABEL_SESSION = "multicosim.session"
+LABEL_OWNER = "multicosim.owner"
+
+_START_HINT = (
+    "start it with `sudo setsid nohup dockerd >/tmp/dockerd.log 2>&1 </dev/null &` "
+    "(or `sudo systemctl start docker`); `.ci/docker.sh` installs and starts it"
+)
+
+
+class EngineUnavailableError(MulticosimError):
+    """The Docker engine cannot be reached (not installed, not running or no permission)."""
+
+
+class ImageMissingError(NodeStartError):
+    """A component's image is not present locally (multicosim never pulls images)."""
+
+
+def _engine_url() -> str:
+    return os.environ.get("DOCKER_HOST", "unix:///var/run/docker.sock")
+
+
+@functools.cache
+def _client_for(pid: int, url: str) -> Any:
+    # One client (one connection pool) per process and engine address; the pid key makes a
+    # forked child build its own instead of sharing sockets with its parent.
+    if url.startswith("unix://"):
+        # Probe the socket ourselves first: the SDK leaks its socket when the engine is
+        # down, and a missing socket file deserves the plainest message.
+        path = url.removeprefix("unix://")
+        with socket.socket(socket.AF_UNIX) as probe:
+            try:
+                probe.connect(path)
+            except PermissionError as exc:
+                raise EngineUnavailableError(
+                    f"no permission to use the Docker engine at {url}: run as root or add "
+                    "this user to the 'docker' group"
+                ) from exc
+            except OSError as exc:
+                raise EngineUnavailableError(
+                    f"the Docker engine is not running (nothing answers at {url}: "
+                    f"{exc.strerror}): {_START_HINT}"
+                ) from exc
+    try:
+        return docker.DockerClient(base_url=url, version="auto", timeout=60)
+    except docker.errors.DockerException as exc:
+        text = str(exc)
+        if "PermissionError" in text or "Permission denied" in text:
+            raise EngineUnavailableError(
+                f"no permission to use the Docker engine at {url}: run as root or add this "
+                "user to the 'docker' group"
+            ) from exc
+        raise EngineUnavailableError(
+            f"the Docker engine is not running (nothing answers at {url}): {_START_HINT}"
+        ) from exc
+
+
+def client() -> Any:
+    """This process's Docker client for the engine named by ``DOCKER_HOST`` (read now)."""
+    return _client_for(os.getpid(), _engine_url())
+
+
+def engine_available() -> str | None:
+    """None if the engine answers, else the reason it does not."""
+    try:
+        client().ping()
+    except (EngineUnavailableError, docker.errors.DockerException) as exc:
+        _client_for.cache_clear()
+        return str(exc)
+    except OSError as exc:
+        _client_for.cache_clear()
+        return f"the Docker engine is not reachable at {_engine_url()}: {exc}"
+    return None
+
+
+@functools.cache
+def session_id() -> str:
+    """A token naming this host process; every resource it creates carries it."""
+    return uuid.uuid4().hex[:16]
+
+
+def _boot_id() -> str:
+    try:
+        with open("/proc/sys/kernel/random/boot_id") as f:
+            return f.read().strip()
+    except OSError:
+        return "unknown"
+
+
+def _start_time(pid: int) -> str | None:
+    # Field 22 of /proc/PID/stat (after the parenthesised command name, which may contain
+    # spaces): the process start time, which tells a recycled pid from the original.
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            stat = f.read()
+    except OSError:
+        return None
+    return stat.rsplit(")", 1)[1].split()[19]
+
+
+@functools.cache
+def _owner_for(pid: int) -> str:
+    return f"{socket.gethostname()}/{_boot_id()}/{pid}/{_start_time(pid) or '?'}"
+
+
+def owner_id() -> str:
+    """``HOST/BOOT/PID/START``: who created a resource, precise enough to tell it is gone."""
+    return _owner_for(os.getpid())
+
+
+def owner_alive(owner: str) -> bool | None:
+    """Whether the process named by ``owner`` still runs; None if it lives on another host."""
+    try:
+        host, boot, pid_text, start = owner.split("/")
+        pid = int(pid_text)
+    except ValueError:
+        return None
+    if host != socket.gethostname():
+        return None
+    if boot != _boot_id():
+        return False  # the machine rebooted since
+    return _start_time(pid) == start
+
+
+def labels(run_id: str) -> dict[str, str]:
+    """The labels that tie a container or network to its run and host process."""
+    return {LABEL_RUN: run_id, LABEL_SESSION: session_id(), LABEL_OWNER: owner_id()}
+
+
+def build_hint(image: str) -> str:
+    """How to get ``image`` onto this machine."""
+    return (
+        f"build it locally: `python -m multicosim.docker build` builds multicosim's images "
+        f"(or `docker build -t {image} ...` for your own); multicosim never pulls images"
+    )
+
+
+def require_image(api: Any, image: str, name: str) -> None:
+    """Raise ImageMissingError unless ``image`` exists locally."""
+    try:
+        api.inspect_image(image)
+    except docker.errors.ImageNotFound:
+        raise ImageMissingError(
+            name, f"cannot start: image {image!r} is not present locally; {build_hint(image)}"
+        ) from None

@@ -1,0 +1,79 @@
+"""The PX4 scenario: the paper's mission API on a PX4-compatible autopilot and MuJoCo.
+
+::
+
+    import multicosim.px4 as px4
+
+    world = px4.MuJoCo()                                   # the paper's px4.Gazebo()
+    simulator = px4.PX4(world, fidelity="low")             # adds the world and PX4 itself
+    with simulator.start() as simulation:
+        result = simulation.firmware.send(
+            px4.Configuration([px4.Waypoint(lat=47.3980, lon=8.5460, alt=25.0)])
+        )
+    assert result.completed
+
+``import multicosim.px4`` loads neither MuJoCo nor pymavlink; they load when a simulation
+starts.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from ._config import (
+    Configuration,
+    Geofence,
+    Home,
+    MissionResult,
+    MuJoCo,
+    Sample,
+    Topics,
+    Waypoint,
+    WaypointReached,
+)
+
+Gazebo = MuJoCo  # the paper's name for the world configuration
+
+_LAZY = {
+    "PX4": "._simulator",
+    "PX4Component": "._simulator",
+    "PX4Node": "._simulator",
+    "PX4Simulation": "._simulator",
+    "WorldComponent": "._simulator",
+}
+
+__all__ = [
+    "PX4",
+    "Configuration",
+    "Gazebo",
+    "Geofence",
+    "Home",
+    "MissionResult",
+    "MuJoCo",
+    "PX4Component",
+    "PX4Node",
+    "PX4Simulation",
+    "Sample",
+    "Topics",
+    "Waypoint",
+    "WaypointReached",
+    "WorldComponent",
+]
+
+if TYPE_CHECKING:
+    from ._simulator import PX4, PX4Component, PX4Node, PX4Simulation, WorldComponent
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'multicosim.px4' has no attribute {name!r}")
+    import importlib
+
+    value = getattr(importlib.import_module(module, __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)

@@ -1,0 +1,143 @@
+"""Standalone SITL: world and autopilot in real time, talking MAVLink over UDP.
+
+Like PX4 SITL, each link is a UDP socket bound on the host that sends to a fixed remote
+port (14550 for a ground station such as QGroundControl, 14540 for an API client such as
+MAVSDK) and, once a peer has sent something, answers that peer wherever it is. The
+simulation runs paced to wall time (times ``speed``, like PX4_SIM_SPEED_FACTOR) until it is
+stopped; every socket and component is released on exit, Ctrl-C included.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import logging
+import socket
+import threading
+from collections.abc import Callable
+from typing import Any
+
+from .._local import ParticipantComponent, ProcessSimulator
+from .._runtime import StepContext, Subscription
+from ._autopilot import Autopilot
+from ._config import MuJoCo
+from ._hil import MavlinkPacket
+from ._simulator import Fidelity, PX4Component, WorldComponent
+
+__all__ = ["Link", "UdpBridge", "run_sitl"]
+
+log = logging.getLogger(__name__)
+
+GCS_PORT = 14550
+API_PORT = 14540
+MAX_DATAGRAM = 65535
+
+
+@dataclasses.dataclass(frozen=True)
+class Link:
+    """One UDP link: bound to ``local_port`` (0: any) on ``host``, sending to ``remote_port``."""
+
+    remote_port: int
+    local_port: int = 0
+    host: str = "127.0.0.1"
+
+
+class UdpBridge:
+    """A participant carrying the autopilot's MAVLink topics over UDP links."""
+
+    def __init__(self, links: list[Link], uplink: str, downlink: str, period: float) -> None:
+        self.period = period
+        self.uplink = uplink
+        self.downlink = downlink
+        self._links = links
+        self._socks: list[tuple[socket.socket, tuple[str, int]]] = []
+        self._down: Subscription[MavlinkPacket] | None = None
+        self.received = 0
+        self.sent = 0
+        try:
+            for link in links:
+                sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+                sock.bind((link.host, link.local_port))
+                sock.setblocking(False)
+                self._socks.append((sock, (link.host, link.remote_port)))
+        except BaseException:
+            self.close()
+            raise
+
+    @property
+    def local_ports(self) -> list[int]:
+        """The bound local port of each link."""
+        return [int(s.getsockname()[1]) for s, _ in self._socks]
+
+    def setup(self, ctx: StepContext) -> None:
+        """Subscribe to the autopilot's downlink."""
+        self._down = ctx.subscribe(self.downlink, MavlinkPacket)
+
+    def step(self, ctx: StepContext) -> None:
+        """Forward datagrams received since the last step; send what the autopilot sent."""
+        for i, (sock, _) in enumerate(self._socks):
+            while True:
+                try:
+                    data, peer = sock.recvfrom(MAX_DATAGRAM)
+                except (BlockingIOError, InterruptedError):
+                    break
+                except OSError:  # e.g. ICMP port unreachable reported on a later call
+                    break
+                # Answer whoever talks to us (PX4 does the same).
+                self._socks[i] = (sock, peer)
+                self.received += 1
+                ctx.publish(self.uplink, MavlinkPacket(data))
+        down = self._down
+        if down is not None and down._deliveries:
+            for packet in down.messages:
+                for sock, peer in self._socks:
+                    with contextlib.suppress(OSError):
+                        sock.sendto(packet.data, peer)
+                        self.sent += 1
+
+    def close(self) -> None:
+        """Close the sockets."""
+        for sock, _ in self._socks:
+            sock.close()
+        self._socks = []
+
+
+def run_sitl(
+    *,
+    fidelity: Fidelity = "low",
+    speed: float = 1.0,
+    links: list[Link] | None = None,
+    world: MuJoCo | None = None,
+    seed: int = 0,
+    duration: float | None = None,
+    stop: threading.Event | None = None,
+    on_ready: Callable[[list[int]], None] | None = None,
+) -> float:
+    """Run world + autopilot + UDP links paced at ``speed`` x real time.
+
+    Runs until ``duration`` simulated seconds have passed, ``stop`` is set, or Ctrl-C; returns
+    the simulated time reached. ``on_ready`` gets the bound local ports once the links exist.
+    """
+    world = world or MuJoCo()
+    links = links if links is not None else [Link(GCS_PORT, 18570), Link(API_PORT, 14580)]
+    px4 = PX4Component(world, fidelity, process=False)
+    spec = px4.spec
+    sim = ProcessSimulator(seed=seed, realtime=speed)
+    sim.add(WorldComponent(world, fidelity, process=False))
+    sim.add(ParticipantComponent(lambda: Autopilot(spec), "px4"))
+    bridge_id = sim.add(
+        ParticipantComponent(
+            lambda: UdpBridge(links, spec.uplink, spec.downlink, spec.period), "udp"
+        )
+    )
+    with sim.start() as simulation:
+        bridge: Any = simulation.get(bridge_id).participant
+        if on_ready is not None:
+            on_ready(bridge.local_ports)
+        log.info("SITL running at %gx real time; links %s", speed, links)
+        while (stop is None or not stop.is_set()) and (
+            duration is None or simulation.time < duration
+        ):
+            step = 0.25 if duration is None else min(0.25, duration - simulation.time)
+            simulation.advance(max(step, 1e-3))
+        return simulation.time

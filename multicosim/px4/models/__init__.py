@@ -1,0 +1,1 @@
+"""Package data: the MJCF quadrotor (a package so that wheels include it)."""

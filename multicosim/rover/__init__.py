@@ -1,0 +1,106 @@
+"""The rover scenario: an Ackermann rover driven by a finite-state-automaton controller.
+
+The paper's second case study. :class:`Rover` is a Simulator that builds the world and the
+controller for a fidelity level; :data:`controller` is the firmware (``@multicosim.firmware``)
+that turns a :class:`Mission` into a :class:`Trajectory`::
+
+    import multicosim.rover as rover
+
+    simulation = rover.Rover(fidelity="medium").start()
+    trajectory = simulation.controller.send(rover.Mission(speed=5.0))
+    simulation.stop()
+
+Importing this package does not import MuJoCo (the low-fidelity world is kinematic).
+"""
+
+from __future__ import annotations
+
+from ._automaton import TERMINAL, Automaton, Observation, State
+from ._controller import controller
+from ._kinematic import KinematicWorld, kinematic_world
+from ._messages import (
+    ABORT_TOPIC,
+    COMMAND_TOPIC,
+    MAX_SPEED,
+    MAX_STEERING,
+    SENSOR_TOPICS,
+    Abort,
+    Command,
+    Imu,
+    MagneticField,
+    Mission,
+    Position,
+    Sample,
+    Trajectory,
+    WheelSpeed,
+)
+from ._scenario import (
+    BACKENDS,
+    CONTROLLER_COMMAND,
+    FIDELITIES,
+    Backend,
+    Fidelity,
+    Rover,
+    RoverSimulation,
+    controller_component,
+    default_noise,
+    default_world,
+    planned_endpoint,
+    world_command,
+    world_component,
+)
+from ._vehicle import (
+    ACCELERATION,
+    TRACK,
+    WHEEL_RADIUS,
+    WHEELBASE,
+    RoverWorldConfig,
+    SensorNoise,
+    ackermann,
+    heading_from_field,
+)
+
+__all__ = [
+    "ABORT_TOPIC",
+    "ACCELERATION",
+    "BACKENDS",
+    "COMMAND_TOPIC",
+    "CONTROLLER_COMMAND",
+    "FIDELITIES",
+    "MAX_SPEED",
+    "MAX_STEERING",
+    "SENSOR_TOPICS",
+    "TERMINAL",
+    "TRACK",
+    "WHEELBASE",
+    "WHEEL_RADIUS",
+    "Abort",
+    "Automaton",
+    "Backend",
+    "Command",
+    "Fidelity",
+    "Imu",
+    "KinematicWorld",
+    "MagneticField",
+    "Mission",
+    "Observation",
+    "Position",
+    "Rover",
+    "RoverSimulation",
+    "RoverWorldConfig",
+    "Sample",
+    "SensorNoise",
+    "State",
+    "Trajectory",
+    "WheelSpeed",
+    "ackermann",
+    "controller",
+    "controller_component",
+    "default_noise",
+    "default_world",
+    "heading_from_field",
+    "kinematic_world",
+    "planned_endpoint",
+    "world_command",
+    "world_component",
+]

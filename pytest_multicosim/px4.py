@@ -1,0 +1,142 @@
+"""Fixtures of the PX4 scenario (registered by the multicosim plugin).
+
+``px4_simulation`` is a started :class:`multicosim.px4.PX4Simulation` at the fidelity,
+backend and seed that the options and the ``fidelity`` marker select, stopped when the test
+ends whatever happens::
+
+    @pytest.mark.fidelity("low", "medium")
+    def test_mission(px4_simulation):
+        result = px4_simulation.firmware.send(px4.Configuration([px4.Waypoint(...)]))
+        assert result.completed
+
+``px4_simulator`` is the unstarted :class:`multicosim.px4.PX4` (add injectors before
+starting it); ``px4_world`` (the world configuration) and ``px4_params`` can be overridden
+in a module or conftest. ``px4_real`` says which real PX4 SITL is configured
+(``--mcs-px4-image`` / ``--mcs-px4-binary``, or ``MCS_PX4_IMAGE`` / ``MCS_PX4_BINARY``)
+and skips the test with that reason when none is.
+Heavy imports happen inside the fixtures.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import TYPE_CHECKING, Any
+
+import pytest
+
+if TYPE_CHECKING:
+    from multicosim.px4 import PX4, MuJoCo, PX4Simulation
+
+__all__ = [
+    "RealPX4",
+    "px4_params",
+    "px4_real",
+    "px4_simulation",
+    "px4_simulator",
+    "px4_world",
+]
+
+FIDELITIES = ("low", "medium")
+
+
+@pytest.fixture
+def px4_world() -> MuJoCo | None:
+    """The world configuration of ``px4_simulator`` (None: ``px4.MuJoCo()`` defaults)."""
+    return None
+
+
+@pytest.fixture
+def px4_params() -> dict[str, float]:
+    """PX4 parameters given to the autopilot (names as PX4's: ``MPC_XY_CRUISE``, ...)."""
+    return {}
+
+
+@pytest.fixture
+def px4_simulator(
+    mcs_fidelity: str,
+    mcs_backend: str,
+    mcs_seed: int,
+    mcs_simulations: Any,
+    px4_world: MuJoCo | None,
+    px4_params: dict[str, float],
+) -> PX4:
+    """An unstarted PX4 Simulator; whatever it starts is stopped at teardown."""
+    from multicosim.px4 import PX4
+
+    if mcs_fidelity not in FIDELITIES:
+        pytest.skip(
+            f"PX4 at fidelity {mcs_fidelity!r} runs a real PX4 SITL; use the px4_real fixture"
+        )
+    if mcs_backend != "process":
+        pytest.skip(f"the PX4 scenario does not run on the {mcs_backend!r} backend yet")
+    simulator = PX4(
+        px4_world,
+        fidelity=mcs_fidelity,  # type: ignore[arg-type]  # checked above
+        seed=mcs_seed,
+        params=px4_params,
+    )
+    return _Tracked(simulator, mcs_simulations)  # type: ignore[return-value]
+
+
+class _Tracked:
+    """A PX4 simulator whose simulation the test's registry stops."""
+
+    def __init__(self, inner: PX4, simulations: Any) -> None:
+        self._inner = inner
+        self._simulations = simulations
+
+    def add(self, component: Any) -> Any:
+        return self._inner.add(component)
+
+    def start(self) -> PX4Simulation:
+        simulation: PX4Simulation = self._simulations.start(self._inner)
+        return simulation
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._inner, name)
+
+    def __repr__(self) -> str:
+        return f"tracked {self._inner!r}"
+
+
+@pytest.fixture
+def px4_simulation(px4_simulator: PX4) -> PX4Simulation:
+    """A started PX4 simulation (world + autopilot + ground station); stopped at teardown."""
+    return px4_simulator.start()
+
+
+class RealPX4:
+    """Where a real PX4 SITL comes from: a Docker image or a ``px4`` binary (or neither)."""
+
+    def __init__(self, image: str | None, binary: str | None) -> None:
+        self.image = image or None
+        self.binary = binary or None
+
+    @property
+    def configured(self) -> bool:
+        """Whether any real PX4 is configured."""
+        return bool(self.image or self.binary)
+
+    def __repr__(self) -> str:
+        return f"RealPX4(image={self.image!r}, binary={self.binary!r})"
+
+
+def _option(config: pytest.Config, name: str, env: str) -> str | None:
+    """The option, else its ini twin, else the environment variable ``env``."""
+    value = config.getoption(name) or config.getini(name)
+    return str(value) if value else os.environ.get(env) or None
+
+
+@pytest.fixture
+def px4_real(request: pytest.FixtureRequest) -> RealPX4:
+    """The configured real PX4 SITL; skips the test when none is configured."""
+    real = RealPX4(
+        _option(request.config, "mcs_px4_image", "MCS_PX4_IMAGE"),
+        _option(request.config, "mcs_px4_binary", "MCS_PX4_BINARY"),
+    )
+    if not real.configured:
+        pytest.skip(
+            "no real PX4 SITL configured: give --mcs-px4-image (an image built from "
+            "images/px4/Dockerfile) or --mcs-px4-binary (a PX4 SITL 'px4' binary)"
+        )
+    return real

