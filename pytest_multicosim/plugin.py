@@ -209,14 +209,19 @@ def pytest_sessionstart(session: pytest.Session) -> None:
     killed = sweep_stale_runs()
     if killed:
         log.warning("removed %d process group(s) left by killed runs", len(killed))
-    _sweep_docker(include_current_process=False)
+    if not _nested():
+        _sweep_docker(include_current_process=False)
 
 
 def pytest_sessionfinish(session: pytest.Session) -> None:
-    # A session run inside another test (pytester) must not touch the outer test's
-    # containers; only a top-level session removes what this process left behind.
-    if os.environ.get("PYTEST_CURRENT_TEST") is None:
+    if not _nested():
         _sweep_docker(include_current_process=True)
+
+
+def _nested() -> bool:
+    # A session run inside a test (pytester, inline or as a subprocess) leaves the engine
+    # alone: the outer test may be looking at what a killed run left on purpose.
+    return os.environ.get("PYTEST_CURRENT_TEST") is not None
 
 
 def _sweep_docker(*, include_current_process: bool) -> None:
