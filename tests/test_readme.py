@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import re
 from pathlib import Path
 from typing import Any
@@ -13,13 +14,22 @@ import multicosim as mcs
 README = Path(__file__).resolve().parents[1] / "README.md"
 
 
-def _python_blocks() -> list[str]:
-    return re.findall(r"```python\n(.*?)```", README.read_text(), flags=re.DOTALL)
+def _block(containing: str) -> str:
+    """The README's Python block that contains ``containing`` (exactly one must)."""
+    blocks = re.findall(r"```python\n(.*?)```", README.read_text(), flags=re.DOTALL)
+    found = [b for b in blocks if containing in b]
+    assert len(found) == 1, f"{len(found)} README blocks contain {containing!r}"
+    return str(found[0])
+
+
+def _run(containing: str, namespace: dict[str, Any] | None = None) -> dict[str, Any]:
+    namespace = {} if namespace is None else namespace
+    exec(compile(_block(containing), f"README block with {containing!r}", "exec"), namespace)
+    return namespace
 
 
 def test_quick_start_listing_runs() -> None:
-    namespace: dict[str, Any] = {}
-    exec(compile(_python_blocks()[0], "README quick start", "exec"), namespace)
+    namespace = _run("multicosim.testing:Cart")
     # The cart moves at 5 m/s from t=0.01 s until the driver's last step at t=1.95 s.
     assert namespace["report"].positions[-1] == pytest.approx(9.75)
 
@@ -27,8 +37,7 @@ def test_quick_start_listing_runs() -> None:
 def test_component_listing_runs_in_process() -> None:
     from multicosim import testing
 
-    namespace: dict[str, Any] = {"mcs": mcs, "testing": testing}
-    exec(compile(_python_blocks()[1], "README components", "exec"), namespace)
+    namespace = _run("class Cart:", {"mcs": mcs, "testing": testing})
     simulator = mcs.ProcessSimulator()
     simulator.add(mcs.ParticipantComponent(namespace["Cart"], name="cart"))
     node_id = simulator.add(mcs.InProcessFirmwareComponent(namespace["controller"]))
@@ -39,8 +48,39 @@ def test_component_listing_runs_in_process() -> None:
 
 def test_pytest_listing_passes(pytester: pytest.Pytester) -> None:
     pytester.makepyfile(
-        "import multicosim as mcs\nfrom multicosim import testing\n" + _python_blocks()[2]
+        "import multicosim as mcs\nfrom multicosim import testing\n"
+        + _block("def test_cart_reaches_the_goal")
     )
     result = pytester.runpytest("--mcs-fidelity=low,medium,high", "-rs")
     result.assert_outcomes(passed=2, skipped=1)
     result.stdout.fnmatch_lines(["*fidelity 'high' not in the test's levels (low, medium)*"])
+
+
+def test_px4_listing_runs() -> None:
+    result = _run("px4.Configuration([px4.Waypoint")["result"]
+    assert result.completed, result.reason
+    assert [r.index for r in result.reached] == [0]  # the one waypoint
+
+
+def test_rover_listings_run() -> None:
+    namespace = _run("rover.Rover(fidelity=")
+    assert namespace["trajectory"].completed  # the hand-built medium-fidelity run
+
+
+def test_psy_taliro_listing_runs() -> None:
+    result = _run("mtaliro.falsify(")["result"]
+    assert result.robustness == result.robustness  # a number, not NaN
+
+
+def test_docker_listing_runs() -> None:
+    from multicosim.docker import RUNTIME_IMAGE, engine_available
+
+    reason = engine_available()
+    if reason is not None:
+        if os.environ.get("MCS_REQUIRE_DOCKER") == "1":
+            pytest.fail(f"MCS_REQUIRE_DOCKER=1 but no Docker engine: {reason}")
+        pytest.skip(f"no Docker engine: {reason}")
+    from multicosim.docker import build_images
+
+    assert RUNTIME_IMAGE in build_images()
+    assert _run("mcs.ContainerSimulator()")["trajectory"].completed
