@@ -532,7 +532,10 @@ def pytest_runtest_makereport(
 def _save_logs(view: _TestSimulations, dest: Path) -> dict[str, tuple[Path, str]]:
     saved: dict[str, tuple[Path, str]] = {}
     for sim in view.simulations:
-        logs = getattr(sim, "logs", None)
+        # Scenario simulations (rover, PX4) wrap a ProcessSimulation as ``.simulation``.
+        logs = getattr(sim, "logs", None) or getattr(
+            getattr(sim, "simulation", None), "logs", None
+        )
         if logs is None:
             continue
         try:
