@@ -5,19 +5,19 @@
    image and command + polling the published port with raw pyzmq until the first reply.
    Measured for a component joining a running simulation and for a whole
    ``ContainerSimulator.start`` (which also creates the network).
-2. round trip: ``node.send(Echo(...))`` through the published port against a raw pyzmq
+2. stop: ``node.stop()`` (stop and remove the container) against ``container.stop()`` +
+   ``remove()`` of the raw container.
+3. round trip: ``node.send(Echo(...))`` through the published port against a raw pyzmq
    DEALER sending the same frame to the same container.
 
-Usage: ``python bench/bench_docker.py [--starts N] [--calls N]``; needs a running engine and
-the runtime image (``python -m multicosim.docker build``). Prints a table and writes
-``bench/results/docker.json``.
+Usage: ``python bench/bench_docker.py [--starts N] [--calls N] [--quick]``; needs a running
+engine and the runtime image (``python -m multicosim.docker build``); without them it
+writes the reason and exits. Prints a table and writes ``bench/results/docker.json``.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
-import platform
 import statistics
 import sys
 import time
@@ -26,6 +26,7 @@ from typing import Any
 
 import msgspec
 import zmq
+from _common import docker_reason, write_result
 
 from multicosim import _wire as wire
 from multicosim._messages import encode, type_name
@@ -33,7 +34,6 @@ from multicosim.docker import (
     RUNTIME_IMAGE,
     ContainerSimulator,
     FirmwareComponent,
-    engine_available,
 )
 from multicosim.docker import _selftest as st
 from multicosim.docker._engine import client, labels
@@ -88,19 +88,30 @@ def bench_start(n: int) -> dict[str, list[float]]:
     """Interleaved start-to-ready samples of the raw path and ours."""
     docker = client()
     zctx: zmq.Context[Any] = zmq.Context()
-    samples: dict[str, list[float]] = {"raw": [], "component": [], "simulation": []}
+    samples: dict[str, list[float]] = {
+        "raw": [],
+        "component": [],
+        "simulation": [],
+        "raw_stop": [],
+        "component_stop": [],
+    }
     holder = ContainerSimulator()
     holder_sim = holder.start()  # a running simulation that components join
     try:
         for i in range(n):
             elapsed, container, _ = raw_start(docker, zctx)
             samples["raw"].append(elapsed)
+            t0 = time.perf_counter()
+            container.stop(timeout=5)
             container.remove(force=True)
+            samples["raw_stop"].append(time.perf_counter() - t0)
 
             t0 = time.perf_counter()
             node = _firmware(f"echo{i}").start(holder_sim.environment)
             samples["component"].append(time.perf_counter() - t0)
+            t0 = time.perf_counter()
             node.stop()
+            samples["component_stop"].append(time.perf_counter() - t0)
 
             sim = ContainerSimulator()
             sim.add(_firmware())
@@ -155,11 +166,16 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--starts", type=int, default=7, help="start samples per path")
     parser.add_argument("--calls", type=int, default=2000, help="round trips per block")
+    parser.add_argument("--quick", action="store_true", help="3 starts, 500 calls per block")
+    parser.add_argument("--output", type=Path, default=None)
     args = parser.parse_args(argv)
-    reason = engine_available()
+    if args.quick:
+        args.starts, args.calls = 3, 500
+    reason = docker_reason()
     if reason is not None:
-        print(f"no Docker engine: {reason}", file=sys.stderr)
-        return 2
+        print(f"skipped: {reason}", file=sys.stderr)
+        write_result("docker", {"skipped": reason}, args.output)
+        return 0
     starts = bench_start(args.starts)
     rtts = bench_rtt(args.calls)
     med = {k: statistics.median(v) for k, v in starts.items()}
@@ -178,6 +194,13 @@ def main(argv: list[str] | None = None) -> int:
             "ms",
             med["simulation"] / med["raw"],
         ),
+        ("stop: raw docker stop + remove", med["raw_stop"] * 1e3, "ms", None),
+        (
+            "stop: node.stop()",
+            med["component_stop"] * 1e3,
+            "ms",
+            med["component_stop"] / med["raw_stop"],
+        ),
         ("round trip: raw pyzmq, published port", rtt["raw"] * 1e6, "us", None),
         ("round trip: FirmwareNode.send", rtt["send"] * 1e6, "us", rtt["send"] / rtt["raw"]),
     ]
@@ -186,7 +209,6 @@ def main(argv: list[str] | None = None) -> int:
         r = f"{ratio:6.2f}" if ratio is not None else "     -"
         print(f"{label:<56} {value:>7.2f} {unit}  {r}")
     result = {
-        "machine": {"python": platform.python_version(), "platform": platform.platform()},
         "image": RUNTIME_IMAGE,
         "start_ready_s": starts,
         "round_trip_s": rtts,
@@ -194,14 +216,13 @@ def main(argv: list[str] | None = None) -> int:
         "ratios": {
             "component_start_vs_raw": med["component"] / med["raw"],
             "simulation_start_vs_raw": med["simulation"] / med["raw"],
+            "component_stop_vs_raw": med["component_stop"] / med["raw_stop"],
             "send_vs_raw_zmq": rtt["send"] / rtt["raw"],
         },
         "targets": {"component_start_vs_raw": 1.2, "send_vs_raw_zmq": 1.5},
     }
-    out = Path(__file__).resolve().parent / "results" / "docker.json"
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(result, indent=2) + "\n")
-    print(f"wrote {out.relative_to(Path.cwd()) if out.is_relative_to(Path.cwd()) else out}")
+    out = write_result("docker", result, args.output)
+    print(f"wrote {out.name}")
     return 0
 
 

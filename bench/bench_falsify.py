@@ -7,27 +7,27 @@ fidelity with the same budget: once guided (``hypothesis.target(-robustness)``),
 Both searches draw the same examples until Hypothesis starts optimising the target (at half
 the budget, for budgets under 1000), so the difference is what guidance adds.
 
-Usage: ``python bench/bench_falsify.py [--seeds N] [--budget N]``. Prints a table and writes
-``bench/results/falsify.json``.
+Usage: ``python bench/bench_falsify.py [--seeds N] [--budget N] [--quick]``. Prints a table
+and writes ``bench/results/falsify.json``. (Simulations per minute per fidelity level, and
+``pytest -n 2`` against ``-n 0``, are in ``bench/bench_throughput.py``.)
 """
 
 from __future__ import annotations
 
 import argparse
-import json
-import platform
 import sys
 import time
 from pathlib import Path
 from typing import Any
 
-ROOT = Path(__file__).resolve().parent.parent
+from _common import ROOT, write_result
+
 sys.path.insert(0, str(ROOT / "tests" / "falsify"))
 
-from falsify_cart import PIT, run  # noqa: E402
-from hypothesis import strategies as st  # noqa: E402
+from falsify_cart import PIT, run
+from hypothesis import strategies as st
 
-from multicosim.falsify import examples_to_first_violation, falsify  # noqa: E402
+from multicosim.falsify import examples_to_first_violation, falsify
 
 INPUTS = st.tuples(st.floats(0.0, 5.0), st.integers(1, 100))
 
@@ -36,7 +36,11 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=30, help="seeds 0..N-1 (default 30)")
     parser.add_argument("--budget", type=int, default=300, help="examples per search")
+    parser.add_argument("--quick", action="store_true", help="8 seeds")
+    parser.add_argument("--output", type=Path, default=None)
     args = parser.parse_args()
+    if args.quick:
+        args.seeds = 8
 
     rows: dict[str, list[dict[str, Any]]] = {"guided": [], "unguided": []}
     summaries: dict[str, Any] = {}
@@ -77,7 +81,6 @@ def main() -> int:
         "unguided_earlier": sum(1 for g, u in both if u is not None and (g is None or u < g)),
     }
     report = {
-        "machine": {"python": platform.python_version(), "platform": platform.platform()},
         "scenario": {
             "requirement": PIT,
             "inputs": "speed in [0, 5], steps in 1..100",
@@ -89,8 +92,7 @@ def main() -> int:
         "paired": paired,
         "per_seed": rows,
     }
-    out = ROOT / "bench" / "results" / "falsify.json"
-    out.write_text(json.dumps(report, indent=2) + "\n")
+    out = write_result("falsify", report, args.output)
 
     print(f"{'':10}{'found':>8}{'median':>9}{'mean*':>9}{'ms/sim':>9}")
     for mode, s in summaries.items():
@@ -101,7 +103,7 @@ def main() -> int:
         )
     print(f"paired by seed: {paired}")
     print("mean*: examples to the first violation, a search that found none counted as budget+1")
-    print(f"wrote {out.relative_to(ROOT)}")
+    print(f"wrote {out.name}")
     return 0
 
 

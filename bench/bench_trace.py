@@ -9,7 +9,7 @@ the median of the per-pair ratios.
 Saving the trace (JSON encoding, MCAP writing: done only for failing tests) is reported
 separately.
 
-Usage: ``python bench/bench_trace.py [--runs N]``. Prints a table and writes
+Usage: ``python bench/bench_trace.py [--runs N] [--quick]``. Prints a table and writes
 ``bench/results/trace.json``.
 """
 
@@ -17,17 +17,17 @@ from __future__ import annotations
 
 import argparse
 import gc
-import json
-import platform
 import statistics
 import tempfile
 import time
 from pathlib import Path
 
+from _common import write_result
+
 import multicosim.rover as rover
 from multicosim.trace import Recorder, location_fix
 
-ROOT = Path(__file__).resolve().parent.parent
+TARGET_PERCENT = 10.0
 # About 60 s of simulated time: wait 5 s, 25 m straight, a 70 degree turn, 25 m, stop.
 MISSION = rover.Mission(speed=1.0, wait=5.0, distance=25.0, final_distance=25.0)
 
@@ -52,7 +52,11 @@ def one_run(record: bool) -> tuple[float, float, Recorder | None]:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=60, help="runs of each kind (default 60)")
+    parser.add_argument("--quick", action="store_true", help="20 runs of each kind")
+    parser.add_argument("--output", type=Path, default=None)
     args = parser.parse_args()
+    if args.quick:
+        args.runs = 20
 
     one_run(False)  # warm-up: imports, caches
     plain: list[float] = []
@@ -78,20 +82,19 @@ def main() -> int:
     p, r = statistics.median(plain), statistics.median(recorded)
     ratio = statistics.median(b / a for a, b in zip(plain, recorded, strict=True))
     report = {
-        "machine": {"python": platform.python_version(), "platform": platform.platform()},
         "mission_simulated_s": simulated,
         "messages_recorded": len(recorder.deliveries),
         "runs": args.runs,
         "cpu_s": {"plain_median": p, "recorded_median": r, "plain": plain, "recorded": recorded},
         "overhead_percent": 100.0 * (ratio - 1.0),
+        "target_percent": TARGET_PERCENT,
         "save": {
             "seconds": save_s,
             "bytes": size,
             "messages_per_s": (len(recorder.deliveries) + len(recorder._extras)) / save_s,
         },
     }
-    out = ROOT / "bench" / "results" / "trace.json"
-    out.write_text(json.dumps(report, indent=2) + "\n")
+    out = write_result("trace", report, args.output)
     print(
         f"60 s rover mission at low fidelity, {len(recorder.deliveries)} messages, "
         f"median of {args.runs} runs"
@@ -100,7 +103,7 @@ def main() -> int:
     print(f"  with recording    {1e3 * r:8.2f} ms CPU")
     print(f"  overhead (median of paired ratios) {report['overhead_percent']:+.1f} %")
     print(f"  save (MCAP, zstd, + LocationFix) {1e3 * save_s:.1f} ms, {size / 1024:.0f} KiB")
-    print(f"wrote {out.relative_to(ROOT)}")
+    print(f"wrote {out.name}")
     return 0
 
 

@@ -1,4 +1,4 @@
-"""Transport overhead of the local process backend against raw pyzmq, in one run.
+"""Transport overhead of the local backends against raw pyzmq and pymavlink, in one run.
 
 Measures, between two local processes on loopback:
 
@@ -8,21 +8,25 @@ Measures, between two local processes on loopback:
   uses);
 * ``step``: one lockstep exchange (Step/Yield) of a process participant, driven by
   ``ProcessSimulation.advance(period)``, against a raw ROUTER/DEALER round trip of frames of
-  the same size.
+  the same size, and against a raw pymavlink round trip over UDP (HIL_ACTUATOR_CONTROLS
+  out, HIL_SENSOR back: what the PX4 world and autopilot exchange every step);
+* in-process: ``send`` to an in-process firmware and one lockstep step of an in-process
+  participant, against a direct Python call of the same handler.
 
 Each case is timed call by call in alternating rounds (so drift hits every case alike); the
 ratio of medians (and of the 10th percentiles, the undisturbed calls) is printed as a table
 and written to ``bench/results/transport.json``. The target is met when both are <= 1.5.
 
-    python bench/bench_transport.py [--iterations N] [--rounds R] [--profile]
+    python bench/bench_transport.py [--iterations N] [--rounds R] [--quick] [--profile]
+
+Container round trips are in ``bench/bench_docker.py``.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import os
-import platform
+import socket
 import statistics
 import subprocess
 import sys
@@ -33,12 +37,12 @@ from typing import Any
 
 import msgspec
 import zmq
+from _common import write_result
 
 import multicosim as mcs
 from multicosim import _wire as wire
 
 HERE = Path(__file__).resolve().parent
-RESULTS = HERE / "results" / "transport.json"
 TARGET_RATIO = 1.5
 STEP_PERIOD = 0.001
 BATCH = 20  # exchanges per advance call in the batched lockstep case
@@ -87,6 +91,15 @@ def _raw_server(kind: str) -> None:
         print(port, flush=True)
         while True:
             sock.send_multipart(sock.recv_multipart())
+    elif kind == "mavlink":  # answer each actuator frame with a sensor frame, as a world does
+        from pymavlink import mavutil
+
+        conn = mavutil.mavlink_connection(sys.stdin.readline().strip(), source_system=1)
+        while True:
+            msg = conn.recv_match(type="HIL_ACTUATOR_CONTROLS", blocking=True, timeout=5)
+            if msg is None:
+                return
+            conn.mav.hil_sensor_send(msg.time_usec, *([0.1] * 13), 0x1FFF)
     else:  # "dealer": connect to the host's ROUTER, say hello, then echo
         sock = ctx.socket(zmq.DEALER)
         sock.setsockopt(zmq.ROUTING_ID, b"raw")
@@ -263,6 +276,13 @@ def bench_step(iterations: int, rounds: int) -> dict[str, Any]:
     port = router.bind_to_random_port("tcp://127.0.0.1")
     peer = RawPeer("dealer", f"tcp://127.0.0.1:{port}")
     ident, _hello = router.recv_multipart()
+    try:
+        mav = MavlinkPeer()
+    except BaseException:
+        router.close(0)
+        zctx.term()
+        peer.close()
+        raise
     step = wire.encoder.encode(wire.Step(10**9, []))
     yield_ = wire.encoder.encode(wire.Yield(10**9 + 10**6, [], []))
     try:
@@ -282,6 +302,7 @@ def bench_step(iterations: int, rounds: int) -> dict[str, Any]:
             samples = run_rounds(
                 {
                     "raw ROUTER/DEALER": raw_exchange,
+                    "raw pymavlink UDP": mav.round_trip,
                     "advance(period)": advance,
                     f"advance({BATCH} periods) / {BATCH}": advance_batch,
                 },
@@ -296,6 +317,7 @@ def bench_step(iterations: int, rounds: int) -> dict[str, Any]:
         router.close(0)
         zctx.term()
         peer.close()
+        mav.close()
     stats = {name: summary(s) for name, s in samples.items()}
     return {
         "case": "step",
@@ -305,7 +327,76 @@ def bench_step(iterations: int, rounds: int) -> dict[str, Any]:
         "ratio_p10": stats["advance(period)"]["p10_us"] / stats["raw ROUTER/DEALER"]["p10_us"],
         "ratio_batch": stats[f"advance({BATCH} periods) / {BATCH}"]["median_us"]
         / stats["raw ROUTER/DEALER"]["median_us"],
+        "ratio_vs_mavlink": stats["advance(period)"]["median_us"]
+        / stats["raw pymavlink UDP"]["median_us"],
     }
+
+
+def free_udp_port() -> int:
+    """A UDP port free on loopback right now."""
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+        sock.bind(("127.0.0.1", 0))
+        return int(sock.getsockname()[1])
+
+
+class MavlinkPeer:
+    """The host end of a raw pymavlink round trip to a child process."""
+
+    def __init__(self) -> None:
+        from pymavlink import mavutil
+
+        port = free_udp_port()
+        self.peer = RawPeer("mavlink", f"udpin:127.0.0.1:{port}")
+        self.conn = mavutil.mavlink_connection(f"udpout:127.0.0.1:{port}", source_system=2)
+        self.controls = [0.5] * 16
+        self.t = 0
+        # UDP: frames sent before the child listens are lost; resend until it answers.
+        deadline = time.monotonic() + 20
+        while self.round_trip(timeout=0.2) is None:
+            if time.monotonic() > deadline:
+                self.close()
+                raise RuntimeError("the raw pymavlink peer did not start")
+
+    def round_trip(self, timeout: float = 5.0) -> object:
+        self.t += 1
+        self.conn.mav.hil_actuator_controls_send(self.t, self.controls, 0, 0)
+        while True:
+            msg = self.conn.recv_match(type="HIL_SENSOR", blocking=True, timeout=timeout)
+            if msg is None or msg.time_usec == self.t:  # skip late answers to resent frames
+                return msg
+
+    def close(self) -> None:
+        self.conn.close()
+        self.peer.close()
+
+
+def bench_inprocess(iterations: int, rounds: int) -> dict[str, Any]:
+    """In-process ``send`` and lockstep step against a direct call of the same handler."""
+    simulator = mcs.ProcessSimulator()
+    simulator.add(mcs.ParticipantComponent(Idle, name="idle"))
+    fw_id = simulator.add(mcs.InProcessFirmwareComponent(echo))
+    msg = payload(4)
+    ctx = mcs.FirmwareContext("direct", 0, 1_000_000, None)
+    with simulator.start() as sim:
+        node = sim.get(fw_id)
+        sim.advance(STEP_PERIOD)
+
+        def direct() -> Payload:
+            return echo(msg, ctx)
+
+        def send() -> Payload:
+            return node.send(msg)
+
+        def step() -> None:
+            sim.advance(STEP_PERIOD)
+
+        samples = run_rounds(
+            {"direct call": direct, "in-process send": send, "in-process step": step},
+            iterations,
+            rounds,
+        )
+    stats = {name: summary(s) for name, s in samples.items()}
+    return {"case": "in-process", "stats": stats}
 
 
 def meets_target(row: dict[str, Any]) -> bool:
@@ -317,7 +408,9 @@ def meets_target(row: dict[str, Any]) -> bool:
     return bool(row["ratio"] <= TARGET_RATIO and row["ratio_p10"] <= TARGET_RATIO)
 
 
-def print_table(send_rows: list[dict[str, Any]], step_row: dict[str, Any]) -> None:
+def print_table(
+    send_rows: list[dict[str, Any]], step_row: dict[str, Any], inproc: dict[str, Any]
+) -> None:
     """The results as a plain-text table; ratios are against the first (raw) line."""
     head = f"{'case':<34}{'median us':>10}{'p10 us':>9}{'p90 us':>9}{'ratio':>7}{'p10 ratio':>10}"
     print(head)
@@ -336,6 +429,8 @@ def print_table(send_rows: list[dict[str, Any]], step_row: dict[str, Any]) -> No
         lines(row["stats"])
     print("lockstep exchange (one Step/Yield of a process participant)")
     lines(step_row["stats"])
+    print("in-process (no sockets)")
+    lines(inproc["stats"])
     print()
     for row in send_rows:
         verdict = "meets" if meets_target(row) else "MISSES"
@@ -351,9 +446,11 @@ def print_table(send_rows: list[dict[str, Any]], step_row: dict[str, Any]) -> No
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--iterations", type=int, default=10000, help="calls per case")
-    parser.add_argument("--rounds", type=int, default=25, help="alternating rounds per case")
+    parser.add_argument("--iterations", type=int, default=6000, help="calls per case")
+    parser.add_argument("--rounds", type=int, default=20, help="alternating rounds per case")
     parser.add_argument("--sizes", default="4,128", help="payload sizes (floats), comma list")
+    parser.add_argument("--quick", action="store_true", help="1500 calls per case, 10 rounds")
+    parser.add_argument("--output", type=Path, default=None)
     parser.add_argument("--profile", action="store_true", help="cProfile FirmwareNode.send")
     parser.add_argument("--raw-server", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
@@ -362,36 +459,34 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     if args.profile:
         return profile_send(args.iterations)
+    if args.quick:
+        args.iterations, args.rounds = 1500, 10
 
     started = time.perf_counter()
     sizes = [int(s) for s in args.sizes.split(",")]
     send_rows = bench_send(sizes, args.iterations, args.rounds)
     step_row = bench_step(args.iterations, args.rounds)
+    inproc = bench_inprocess(args.iterations, args.rounds)
     elapsed = time.perf_counter() - started
-    print_table(send_rows, step_row)
+    print_table(send_rows, step_row, inproc)
     print(f"(took {elapsed:.1f} s)")
 
-    RESULTS.parent.mkdir(parents=True, exist_ok=True)
     result = {
-        "benchmark": "transport",
         "target_ratio": TARGET_RATIO,
         "meets_target": all(meets_target(row) for row in send_rows),
         "iterations": args.iterations,
         "rounds": args.rounds,
         "send": send_rows,
         "step": step_row,
-        "environment": {
-            "python": platform.python_version(),
-            "implementation": platform.python_implementation(),
+        "in_process": inproc,
+        "versions": {
             "pyzmq": zmq.__version__,
             "libzmq": zmq.zmq_version(),
             "msgspec": msgspec.__version__,
-            "cpus": os.cpu_count(),
-            "machine": platform.machine(),
         },
         "elapsed_s": round(elapsed, 2),
     }
-    RESULTS.write_text(json.dumps(result, indent=2) + "\n")
+    write_result("transport", result, args.output)
     return 0
 
 

@@ -192,7 +192,10 @@ class Coordinator:
         self.address = f"tcp://{host}:{port}"
         self.step_timeout = DEFAULT_STEP_TIMEOUT
         self._expected: dict[str, tuple[int, Watch | None]] = {}
-        self._pollers: dict[zmq.Socket[Any] | None, zmq.Poller] = {}
+        # Socket.poll builds a Poller per call; the lockstep exchange waits once per step.
+        self._solo = zmq.Poller()
+        self._solo.register(self.socket, zmq.POLLIN)
+        self._pollers: dict[zmq.Socket[Any] | None, zmq.Poller] = {None: self._solo}
         self._hellos: dict[str, wire.Hello] = {}
         self._watches: dict[str, Watch] = {}
 
@@ -293,14 +296,14 @@ class Coordinator:
         deadline = time.monotonic() + self.step_timeout
         watch = self._watches.get(name)
         while True:
-            if self.socket.poll(_SLICE_MS):
+            if self._solo.poll(_SLICE_MS):
                 ident, raw = self.socket.recv_multipart()
                 sender = ident.decode()
                 frame = self._handle(sender, raw)
                 if frame is not None:
                     if sender != name:
                         raise TransportError(f"{sender!r} yielded while {name!r} had the turn")
-                    outbox = [Delivery(t, time_ns, data=d) for t, d in frame.outbox]
+                    outbox = [Delivery(t, time_ns, raw=d) for t, d in frame.outbox]
                     return StepResult(frame.next_ns, outbox, frame.subscribe)
                 continue
             if watch is not None and watch.poll() is not None:
@@ -679,6 +682,10 @@ class FirmwareNode(Generic[MsgT, ReplyT]):
         self._socket = (zctx or zmq.Context.instance()).socket(zmq.DEALER)
         self._socket.setsockopt(zmq.LINGER, 0)
         self._socket.connect(endpoint)
+        # Checked after every lockstep step while a call runs: a poll is cheaper than a
+        # non-blocking recv that raises (and Socket.poll would build a Poller per call).
+        self._readable = zmq.Poller()
+        self._readable.register(self._socket, zmq.POLLIN)
         self._next_id = 0
         self._stopped = False
 
@@ -710,13 +717,13 @@ class FirmwareNode(Generic[MsgT, ReplyT]):
         env = self._environment
         answer: list[wire.Reply | wire.Failure | wire.Pong] = []
 
+        readable = self._readable
+
         def arrived() -> bool:
             while not answer:
-                try:
-                    raw = sock.recv(zmq.NOBLOCK)
-                except zmq.Again:
+                if not readable.poll(0):
                     return False
-                frame = wire.from_firmware.decode(raw)
+                frame = wire.from_firmware.decode(sock.recv())
                 if frame.id == call_id:
                     answer.append(frame)
                 # Else: a late answer to a call that timed out; drop it.
@@ -1126,11 +1133,26 @@ class LocalSimulatorBase(Generic[EnvT]):
         self._started = False
 
     @overload
-    def add(self, component: Component[EnvT, NodeT]) -> NodeId[NodeT]: ...
+    def add(
+        self, component: Component[EnvT, NodeT], *, before: NodeId[Any] | None = None
+    ) -> NodeId[NodeT]: ...
     @overload
-    def add(self, component: Component[None, NodeT]) -> NodeId[NodeT]: ...
-    def add(self, component: Any) -> NodeId[Any]:
-        """Add ``component``; components start, and step within an instant, in add order."""
+    def add(
+        self, component: Component[None, NodeT], *, before: NodeId[Any] | None = None
+    ) -> NodeId[NodeT]: ...
+    def add(self, component: Any, *, before: NodeId[Any] | None = None) -> NodeId[Any]:
+        """Add ``component``; components start, and step within an instant, in add order.
+
+        ``before`` places it ahead of an already added component instead of last (a scenario
+        keeps its firmware last, so an injector added later still steps before it).
+        """
+        position = len(self._components)
+        if before is not None:
+            before.check_owner(self._token)
+            ids = [nid for nid, _ in self._components]
+            if before not in ids:
+                raise ConfigurationError("before", before, "the id of a component added here")
+            position = ids.index(before)
         if self._started:
             raise MulticosimError("components cannot be added after start()")
         if not callable(getattr(component, "start", None)):
@@ -1143,8 +1165,22 @@ class LocalSimulatorBase(Generic[EnvT]):
             raise ConfigurationError("name", taken, "a name not used by another component")
         self._names.update(names)
         node_id: NodeId[Any] = NodeId(self._token, len(self._components), name)
-        self._components.append((node_id, component))
+        self._components.insert(position, (node_id, component))
         return node_id
+
+    def replace(self, node_id: NodeId[NodeT], component: Component[EnvT, NodeT]) -> None:
+        """Swap the component ``node_id`` names for ``component`` before start (same place, id).
+
+        For scenarios that reconfigure a component they added (a remapped sensor topic).
+        """
+        if self._started:
+            raise MulticosimError("components cannot be replaced after start()")
+        node_id.check_owner(self._token)
+        for i, (nid, _) in enumerate(self._components):
+            if nid == node_id:
+                self._components[i] = (nid, component)
+                return
+        raise ConfigurationError("node_id", node_id, "the id of a component added here")
 
     def _new_run(self) -> tuple[str, Path]:
         """Mark the simulator started; make the run's id and directory."""

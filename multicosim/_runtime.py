@@ -344,6 +344,9 @@ class Connection:
         self.monitor = self.socket.get_monitor_socket(zmq.EVENT_DISCONNECTED)
         self.socket.connect(address)
         self._ppid = os.getppid()
+        # Socket.poll builds a Poller per call: keep one (a wait per lockstep step).
+        self._poller = zmq.Poller()
+        self._poller.register(self.socket, zmq.POLLIN)
 
     def send(self, frame: wire.Hello | wire.Activate | wire.Yield) -> None:
         """Send one frame to the coordinator."""
@@ -355,7 +358,7 @@ class Connection:
         The wait has no simulated deadline (the clock may be paused while the host is idle),
         but it ends when the process that started this one has gone.
         """
-        while not self.socket.poll(_PARENT_CHECK_MS):
+        while not self._poller.poll(_PARENT_CHECK_MS):
             if self.orphaned():
                 raise SimulationStopped(f"{self.name}: the simulation host has gone")
         frame: wire.Step | wire.Stop = wire.to_participant.decode(self.socket.recv())
@@ -384,7 +387,7 @@ class Connection:
 
 
 def _inbox(step: wire.Step) -> list[Delivery]:
-    return [Delivery(topic, t, data=data) for topic, t, data in step.inbox]
+    return [Delivery(topic, t, raw=data) for topic, t, data in step.inbox]
 
 
 def _outbox(outbox: list[Delivery]) -> list[tuple[str, bytes]]:
@@ -423,12 +426,16 @@ class LocalDriver:
         self.member = member
 
     def _my_turn(self) -> tuple[int, list[Delivery]]:
+        # Scheduler.run specialised to "until it is my turn": this driver is active, so the
+        # clock runs, and the next member is found once per step instead of twice.
         sched, me = self.scheduler, self.member
-
-        def idle() -> None:  # pragma: no cover - impossible while this driver is scheduled
-            raise MulticosimError(f"{me.name}: the clock stopped while it was active")
-
-        sched.run(lambda: sched.next_member() is me, idle=idle)
+        next_member, step_member = sched.next_member, sched.step_member
+        while (member := next_member()) is not me:
+            if sched.closed:
+                raise MulticosimError("the simulation was stopped")
+            if member is None:  # pragma: no cover - impossible while this driver is scheduled
+                raise MulticosimError(f"{me.name}: the clock stopped while it was active")
+            step_member(member)
         assert me.next_ns is not None
         sched.now_ns = me.next_ns
         inbox, me.inbox = me.inbox, []
@@ -552,6 +559,7 @@ def serve(
         poller.register(conn.socket, zmq.POLLIN)
         conn.send(wire.Hello(name, fw.period_ns, True, [], os.getpid(), bound))
     ppid = os.getppid()
+    fw_seed = derive_seed(seed, name)
     try:
         while stop is None or not stop.is_set():
             events = dict(poller.poll(200 if stop is not None else _PARENT_CHECK_MS))
@@ -570,7 +578,7 @@ def serve(
                     answer: Any = wire.Pong(request.id, name, type_name(fw.msgtype))
                 else:
                     driver = RemoteDriver(conn) if conn is not None else None
-                    ctx = FirmwareContext(name, derive_seed(seed, name), fw.period_ns, driver)
+                    ctx = FirmwareContext(name, fw_seed, fw.period_ns, driver)
                     ctx.time_ns = request.time_ns
                     answer = handle_call(fw, request, ctx)
                 rpc.send_multipart([ident, wire.encoder.encode(answer)])

@@ -30,6 +30,7 @@ __all__ = [
     "KEEP_TRACES",
     "Settings",
     "SimulationRegistry",
+    "require_docker",
 ]
 
 log = logging.getLogger(__name__)
@@ -408,12 +409,56 @@ class _TrackedSimulator:
         return getattr(self._inner, name)
 
 
+def require_docker() -> None:
+    """Skip the test, with the reason, unless a Docker engine answers.
+
+    With ``MCS_REQUIRE_DOCKER=1`` (CI) a missing engine fails the test instead.
+    """
+    try:
+        from multicosim.docker import engine_available
+    except ImportError as exc:  # the docker extra is missing (DependencyMissingError)
+        _docker_unavailable(f"the docker SDK is not installed: {exc}")
+    reason = engine_available()
+    if reason is not None:
+        _docker_unavailable(f"no Docker engine: {reason}")
+
+
+def _docker_unavailable(reason: str) -> None:
+    # Read when needed, not at import: a test may set it for a pytester run.
+    if os.environ.get("MCS_REQUIRE_DOCKER") == "1":
+        pytest.fail(f"MCS_REQUIRE_DOCKER=1 but {reason}", pytrace=False)
+    pytest.skip(reason)
+
+
+@pytest.fixture(scope="session")
+def mcs_runtime_image() -> str:
+    """The runtime image that docker-backed scenarios run, rebuilt if the source changed.
+
+    Skips (or, with ``MCS_REQUIRE_DOCKER=1``, fails) the test where no engine runs. An
+    installed package cannot build it: it must then be present locally.
+    """
+    require_docker()
+    from multicosim.docker import RUNTIME_IMAGE, build_images
+    from multicosim.docker._engine import ImageNotFound, client
+
+    try:
+        return build_images()[0]
+    except MulticosimError as exc:
+        try:
+            client().api.inspect_image(RUNTIME_IMAGE)
+        except ImageNotFound:
+            _docker_unavailable(f"the runtime image {RUNTIME_IMAGE} could not be built: {exc}")
+        log.warning("using %s as it is: %s", RUNTIME_IMAGE, exc)
+        return RUNTIME_IMAGE
+
+
 @pytest.fixture
 def mcs_simulator(
     mcs_backend: str, mcs_seed: int, mcs_simulations: _TestSimulations
 ) -> _TrackedSimulator:
     """A fresh simulator of the selected backend, seeded; its simulation always stops."""
     if mcs_backend == "docker":
+        require_docker()
         from multicosim.docker import ContainerSimulator
 
         inner: Any = ContainerSimulator(seed=mcs_seed)
@@ -533,9 +578,7 @@ def _save_logs(view: _TestSimulations, dest: Path) -> dict[str, tuple[Path, str]
     saved: dict[str, tuple[Path, str]] = {}
     for sim in view.simulations:
         # Scenario simulations (rover, PX4) wrap a ProcessSimulation as ``.simulation``.
-        logs = getattr(sim, "logs", None) or getattr(
-            getattr(sim, "simulation", None), "logs", None
-        )
+        logs = getattr(sim, "logs", None) or getattr(getattr(sim, "simulation", None), "logs", None)
         if logs is None:
             continue
         try:

@@ -11,7 +11,10 @@ ends whatever happens::
 
 ``px4_simulator`` is the unstarted :class:`multicosim.px4.PX4` (add injectors before
 starting it); ``px4_world`` (the world configuration) and ``px4_params`` can be overridden
-in a module or conftest. ``px4_real`` says which real PX4 SITL is configured
+in a module or conftest. With ``--mcs-backend=docker`` the world and the autopilot run as
+containers of the runtime image (rebuilt first if the source changed); where no Docker
+engine runs the test is skipped with the reason (a failure with ``MCS_REQUIRE_DOCKER=1``).
+``px4_real`` says which real PX4 SITL is configured
 (``--mcs-px4-image`` / ``--mcs-px4-binary``, or ``MCS_PX4_IMAGE`` / ``MCS_PX4_BINARY``)
 and skips the test with that reason when none is.
 Heavy imports happen inside the fixtures.
@@ -36,8 +39,6 @@ __all__ = [
     "px4_world",
 ]
 
-FIDELITIES = ("low", "medium")
-
 
 @pytest.fixture
 def px4_world() -> MuJoCo | None:
@@ -53,6 +54,7 @@ def px4_params() -> dict[str, float]:
 
 @pytest.fixture
 def px4_simulator(
+    request: pytest.FixtureRequest,
     mcs_fidelity: str,
     mcs_backend: str,
     mcs_seed: int,
@@ -61,17 +63,16 @@ def px4_simulator(
     px4_params: dict[str, float],
 ) -> PX4:
     """An unstarted PX4 Simulator; whatever it starts is stopped at teardown."""
-    from multicosim.px4 import PX4
+    from multicosim.px4 import BACKENDS, PX4
 
-    if mcs_fidelity not in FIDELITIES:
-        pytest.skip(
-            f"PX4 at fidelity {mcs_fidelity!r} runs a real PX4 SITL; use the px4_real fixture"
-        )
-    if mcs_backend != "process":
-        pytest.skip(f"the PX4 scenario does not run on the {mcs_backend!r} backend yet")
+    if mcs_backend not in BACKENDS:
+        pytest.skip(f"the PX4 scenario does not run on the {mcs_backend!r} backend")
+    if mcs_backend == "docker":
+        request.getfixturevalue("mcs_runtime_image")
     simulator = PX4(
         px4_world,
-        fidelity=mcs_fidelity,  # type: ignore[arg-type]  # checked above
+        fidelity=mcs_fidelity,  # type: ignore[arg-type]  # validated by PX4
+        backend=mcs_backend,
         seed=mcs_seed,
         params=px4_params,
     )

@@ -11,6 +11,9 @@ test ends, whatever happens::
 
 ``rover_simulator`` is the unstarted :class:`multicosim.rover.Rover`, for tests that add
 components (an injector between world and controller) before starting it.
+With ``--mcs-backend=docker`` the world and the controller run as containers of the runtime
+image (rebuilt first if the source changed); where no Docker engine runs the test is skipped
+with the reason (a failure with ``MCS_REQUIRE_DOCKER=1``).
 Heavy imports happen inside the fixtures, so collecting a suite costs nothing.
 """
 
@@ -49,6 +52,7 @@ def rover_noise() -> SensorNoise | None:
 
 @pytest.fixture
 def rover_simulator(
+    request: pytest.FixtureRequest,
     mcs_fidelity: str,
     mcs_backend: str,
     mcs_seed: int,
@@ -60,7 +64,9 @@ def rover_simulator(
     from multicosim.rover import BACKENDS, Rover
 
     if mcs_backend not in BACKENDS:
-        pytest.skip(f"the rover scenario does not run on the {mcs_backend!r} backend yet")
+        pytest.skip(f"the rover scenario does not run on the {mcs_backend!r} backend")
+    if mcs_backend == "docker":
+        request.getfixturevalue("mcs_runtime_image")
     rover = Rover(
         fidelity=mcs_fidelity,  # type: ignore[arg-type]  # validated by Rover
         backend=mcs_backend,

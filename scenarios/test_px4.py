@@ -1,6 +1,7 @@
 """PX4 regression suite: missions fly as configured at every fidelity marked.
 
-Run with ``pytest scenarios/test_px4.py --mcs-fidelity=low,medium``. Each test gets a fresh
+Run with ``pytest scenarios/test_px4.py --mcs-fidelity=low,medium`` (add
+``--mcs-fidelity=high --mcs-backend=docker`` for containers). Each test gets a fresh
 simulation from the ``px4_simulation`` fixture (stopped at teardown, whatever happens).
 """
 
@@ -18,6 +19,7 @@ HOME = px4.Home()
 PROJ = LocalProjection(HOME.lat, HOME.lon)
 # Estimation error allowed on top of the acceptance radius (GPS noise at medium fidelity).
 ESTIMATE_MARGIN = 1.5
+ALL_LEVELS = ("low", "medium", "high")
 
 
 def wp(north: float, east: float, alt: float) -> px4.Waypoint:
@@ -55,7 +57,7 @@ def check_common(result: px4.MissionResult, config: px4.Configuration) -> None:
     assert max(b - a for a, b in itertools.pairwise(times)) <= 0.1 + 1e-6
 
 
-@pytest.mark.fidelity("low", "medium")
+@pytest.mark.fidelity(*ALL_LEVELS)
 def test_mission_lands_at_last_waypoint(px4_simulation: px4.PX4Simulation) -> None:
     config = px4.Configuration([wp(40, 0, 15), wp(40, 40, 20), wp(0, 40, 15)], end="land")
     result = px4_simulation.firmware.send(config)
@@ -72,7 +74,7 @@ def test_mission_lands_at_last_waypoint(px4_simulation: px4.PX4Simulation) -> No
     assert max(s.true_alt for s in result.trajectory) > 18.0
 
 
-@pytest.mark.fidelity("low", "medium")
+@pytest.mark.fidelity(*ALL_LEVELS)
 def test_mission_returns_to_launch(px4_simulation: px4.PX4Simulation) -> None:
     config = px4.Configuration([wp(50, 20, 12)], end="rtl", cruise_speed=8.0)
     result = px4_simulation.firmware.send(config)
@@ -85,7 +87,7 @@ def test_mission_returns_to_launch(px4_simulation: px4.PX4Simulation) -> None:
     assert max(s.true_alt for s in result.trajectory) > 28.0
 
 
-@pytest.mark.fidelity("low", "medium")
+@pytest.mark.fidelity(*ALL_LEVELS)
 def test_mission_holds_at_last_waypoint(px4_simulation: px4.PX4Simulation) -> None:
     config = px4.Configuration([wp(-30, 10, 10)], end="hold")
     result = px4_simulation.firmware.send(config)
@@ -104,7 +106,7 @@ def test_mission_holds_at_last_waypoint(px4_simulation: px4.PX4Simulation) -> No
     assert abs(last.true_alt - 10) < 1.0
 
 
-@pytest.mark.fidelity("low", "medium")
+@pytest.mark.fidelity(*ALL_LEVELS)
 def test_time_limit_returns_incomplete(px4_simulation: px4.PX4Simulation) -> None:
     config = px4.Configuration([wp(300, 0, 20)], time_limit=15.0)
     result = px4_simulation.firmware.send(config)
@@ -113,16 +115,25 @@ def test_time_limit_returns_incomplete(px4_simulation: px4.PX4Simulation) -> Non
     assert result.end_time - result.start_time == pytest.approx(15.0, abs=0.2)
 
 
-@pytest.mark.fidelity("low", "medium")
+@pytest.mark.fidelity(*ALL_LEVELS)
 def test_same_seed_gives_the_same_trajectory(
-    mcs_fidelity: str, mcs_seed: int, mcs_simulations: object
+    px4_simulator: px4.PX4,
+    mcs_seed: int,
+    px4_params: dict[str, float],
+    mcs_simulations: object,
 ) -> None:
     config = px4.Configuration([wp(20, 10, 8)], end="hold", time_limit=40.0)
-    results = []
-    for _ in range(2):
-        simulator = px4.PX4(fidelity=mcs_fidelity, seed=mcs_seed)  # type: ignore[arg-type]
-        simulation = mcs_simulations.start(simulator)  # type: ignore[attr-defined]
-        results.append(simulation.firmware.send(config))
-        simulation.stop()
+    again = px4.PX4(
+        px4_simulator.world,
+        fidelity=px4_simulator.fidelity,
+        backend=px4_simulator.backend,
+        seed=mcs_seed,
+        params=px4_params,
+    )
+    first = px4_simulator.start()
+    results = [first.firmware.send(config)]
+    first.stop()
+    second = mcs_simulations.start(again)  # type: ignore[attr-defined]
+    results.append(second.firmware.send(config))
     assert results[0].completed, results[0].reason
     assert results[0] == results[1]

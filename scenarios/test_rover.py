@@ -1,8 +1,10 @@
 """Regression suite of the rover FSA scenario (the paper's second case study).
 
-Runs at every fidelity level it is marked for and selected with ``--mcs-fidelity``::
+Runs at every fidelity level it is marked for and selected with ``--mcs-fidelity``, on the
+backend ``--mcs-backend`` selects::
 
     pytest scenarios/test_rover.py --mcs-fidelity=low,medium
+    pytest scenarios/test_rover.py --mcs-fidelity=high --mcs-backend=docker
 
 Assertions are on simulated quantities only (positions, headings, speeds, simulated time).
 """
@@ -121,17 +123,21 @@ def test_abort_stops_the_rover(rover_simulation: RoverSimulation, abort_at: floa
     assert math.hypot(end.x - first.x, end.y - first.y) <= braking
 
 
-@pytest.mark.fidelity("low", "medium")
-def test_same_seed_same_trajectory(
-    mcs_fidelity: str, mcs_seed: int, mcs_simulations: object
-) -> None:
+@pytest.mark.fidelity(*ALL_LEVELS)
+def test_same_seed_same_trajectory(rover_simulator: rover.Rover, mcs_simulations: object) -> None:
     """Determinism: the same seed reproduces the trajectory bit for bit."""
     mission = Mission(speed=3.0, wait=0.2, distance=3.0, final_distance=3.0)
-    runs = []
-    for _ in range(2):
-        simulation = mcs_simulations.start(  # type: ignore[attr-defined]
-            rover.Rover(fidelity=mcs_fidelity, seed=mcs_seed)  # type: ignore[arg-type]
-        )
-        runs.append(simulation.controller.send(mission))
-        simulation.stop()
+    again = rover.Rover(
+        fidelity=rover_simulator.fidelity,
+        backend=rover_simulator.backend,
+        seed=rover_simulator.seed,
+        world=rover_simulator.config.world,
+        noise=rover_simulator.config.noise,
+    )
+    first = rover_simulator.start()
+    runs = [first.controller.send(mission)]
+    first.stop()
+    second = mcs_simulations.start(again)  # type: ignore[attr-defined]
+    runs.append(second.controller.send(mission))
+    assert runs[0].completed, runs[0].reason
     assert runs[0] == runs[1]

@@ -35,6 +35,11 @@ from ._config import (
 Gazebo = MuJoCo  # the paper's name for the world configuration
 
 _LAZY = {
+    "BACKENDS": "._simulator",
+    "Backend": "._simulator",
+    "Fidelity": "._simulator",
+    "FIDELITIES": "._simulator",
+    "HIGH_FIDELITY_WORLD": "._simulator",
     "PX4": "._simulator",
     "PX4Component": "._simulator",
     "PX4Node": "._simulator",
@@ -43,8 +48,13 @@ _LAZY = {
 }
 
 __all__ = [
+    "BACKENDS",
+    "FIDELITIES",
+    "HIGH_FIDELITY_WORLD",
     "PX4",
+    "Backend",
     "Configuration",
+    "Fidelity",
     "Gazebo",
     "Geofence",
     "Home",
@@ -61,7 +71,18 @@ __all__ = [
 ]
 
 if TYPE_CHECKING:
-    from ._simulator import PX4, PX4Component, PX4Node, PX4Simulation, WorldComponent
+    from ._simulator import (
+        BACKENDS,
+        FIDELITIES,
+        HIGH_FIDELITY_WORLD,
+        PX4,
+        Backend,
+        Fidelity,
+        PX4Component,
+        PX4Node,
+        PX4Simulation,
+        WorldComponent,
+    )
 
 
 def __getattr__(name: str) -> Any:

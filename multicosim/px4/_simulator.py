@@ -1,22 +1,30 @@
 """The paper's PX4 classes: ``PX4Component``, the ``PX4`` simulator and its simulation.
 
-Fidelity decides the models and where they run (the mission logic is the same code):
+Fidelity picks the models, the backend where they run (the mission logic is the same code):
 
 =========  ==========================  ====================================================
-fidelity   world                       execution
+fidelity   world                       ``backend="process"``
 =========  ==========================  ====================================================
 low        point mass, ideal sensors   world, autopilot and ground station in this process
-medium     MJCF quadrotor in MuJoCo,   world and autopilot as two local processes stepped
-           noisy sensors               in lockstep, exchanging MAVLink HIL frames; ground
+medium     MJCF quadrotor in MuJoCo    world and autopilot as two local processes stepped
+           (2 ms step), noisy sensors  in lockstep, exchanging MAVLink HIL frames; ground
                                        station in this process
+high       as medium, 0.5 ms step and  as medium
+           twice the solver iterations
 =========  ==========================  ====================================================
+
+``backend="docker"`` runs the world and the autopilot, at any fidelity, as containers of
+``multicosim.docker.RUNTIME_IMAGE`` on the simulation's network, exchanging what the process
+backend exchanges at that fidelity (native messages at low, MAVLink HIL frames above); the
+ground station stays in this process. A seed gives the same flight on both backends at the
+same fidelity.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import sys
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal, cast
 
 import msgspec
 
@@ -35,50 +43,113 @@ from .._messages import type_name
 from ._autopilot import Autopilot, AutopilotSpec
 from ._config import Configuration, Geofence, MissionResult, MuJoCo, Topics
 from ._gcs import GcsSpec, ground_station
+from ._hil import Wire
 from ._world import QuadrotorWorld, WorldSpec
 
-__all__ = ["PX4", "Fidelity", "PX4Component", "PX4Node", "PX4Simulation", "WorldComponent"]
+if TYPE_CHECKING:
+    from ..docker import ContainerEnvironment, ContainerNode, ContainerSimulator
+    from ..trace import TraceOptions
 
-Fidelity = Literal["low", "medium"]
-Backend = Literal["process"]
-FIDELITIES = ("low", "medium")
+__all__ = [
+    "BACKENDS",
+    "FIDELITIES",
+    "HIGH_FIDELITY_WORLD",
+    "PX4",
+    "Backend",
+    "Fidelity",
+    "PX4Component",
+    "PX4Node",
+    "PX4Simulation",
+    "WorldComponent",
+    "default_world",
+]
+
+Fidelity = Literal["low", "medium", "high"]
+Backend = Literal["process", "docker"]
+FIDELITIES: tuple[Fidelity, ...] = ("low", "medium", "high")
+BACKENDS: tuple[Backend, ...] = ("process", "docker")
 LOW_PERIOD = 0.1  # a 10 Hz loop suffices for a point mass and keeps a minute of flight >= 1000x
+# High fidelity: the same 100 Hz lockstep, with the rigid body integrated four times finer
+# and the constraint solver given twice the iterations.
+HIGH_FIDELITY_WORLD = MuJoCo(timestep=0.0005, iterations=100)
+
+
+def default_world(fidelity: Fidelity) -> MuJoCo:
+    """The world configuration a fidelity level uses unless one is given."""
+    return HIGH_FIDELITY_WORLD if fidelity == "high" else MuJoCo()
 
 
 def _check_fidelity(fidelity: object) -> None:
     if fidelity not in FIDELITIES:
-        raise ConfigurationError("fidelity", fidelity, "'low' or 'medium'")
+        raise ConfigurationError("fidelity", fidelity, "'low', 'medium' or 'high'")
+
+
+def _check_image(image: object) -> None:
+    if image is not None and (not isinstance(image, str) or not image.strip()):
+        raise ConfigurationError("image", image, "None or a local image name such as 'name:tag'")
 
 
 def _in_process(fidelity: str, process: bool | None) -> bool:
-    return not (process if process is not None else fidelity == "medium")
+    # Also picks the wire: native messages in-process, MAVLink HIL frames between processes.
+    # A container (``image``) keeps the wire of its fidelity, so that a seed gives the same
+    # flight in a container as on the process backend.
+    return not (process if process is not None else fidelity != "low")
 
 
 def _participant_command(factory: str, spec: msgspec.Struct) -> list[str]:
-    return [
-        sys.executable,
-        "-m",
-        "multicosim",
-        "participant",
-        factory,
-        "--config",
-        msgspec.json.encode(spec).decode(),
-    ]
+    return [sys.executable, "-m", *_program(factory, spec)]
+
+
+def _needs_images(component: object) -> bool:
+    """Whether ``component`` runs containers (it names images it needs)."""
+    images = getattr(component, "required_images", None)
+    return callable(images) and bool(images())
+
+
+def _program(factory: str, spec: msgspec.Struct) -> list[str]:
+    """The participant program's command, as the runtime image runs it."""
+    return ["multicosim", "participant", factory, "--config", msgspec.json.encode(spec).decode()]
+
+
+def _start_participant(
+    environment: LocalEnvironment, name: str, factory: str, spec: msgspec.Struct, image: str | None
+) -> Node:
+    """Start participant ``factory(spec)`` as a local process, or a container of ``image``."""
+    if image is None:
+        return ProcessComponent(_participant_command(factory, spec), name=name).start(environment)
+    from ..docker import ContainerComponent, ContainerEnvironment
+
+    if not isinstance(environment, ContainerEnvironment):
+        raise ConfigurationError(
+            "image", image, "None outside a ContainerSimulator (containers need its network)"
+        )
+    return ContainerComponent(image, _program(factory, spec), name=name).start(environment)
 
 
 @dataclasses.dataclass(frozen=True)
 class WorldComponent:
-    """The quadrotor world as a component (point mass at low fidelity, MuJoCo at medium)."""
+    """The quadrotor world as a component (point mass at low fidelity, MuJoCo above).
+
+    It runs in this process at low fidelity and as a local process above (``process``
+    overrides that), or as a container of ``image`` when one is given (in a
+    ContainerSimulator).
+    """
 
     world: MuJoCo = dataclasses.field(default_factory=MuJoCo)
     fidelity: Fidelity = "low"
     name: str = "world"
     process: bool | None = None
+    image: str | None = None
 
     def __post_init__(self) -> None:
         _check_fidelity(self.fidelity)
         if not isinstance(self.world, MuJoCo):
             raise ConfigurationError("world", self.world, "a px4.MuJoCo configuration")
+        _check_image(self.image)
+
+    def required_images(self) -> tuple[str, ...]:
+        """The image it runs in, if any (checked before a ContainerSimulator starts)."""
+        return (self.image,) if self.image is not None else ()
 
     @property
     def spec(self) -> WorldSpec:
@@ -92,12 +163,13 @@ class WorldComponent:
         )
 
     def start(self, environment: LocalEnvironment) -> Node:
-        """Start the world in this process or as a process, per fidelity."""
+        """Start the world in this process, as a process or as a container."""
         spec = self.spec
-        if _in_process(self.fidelity, self.process):
+        if self.image is None and _in_process(self.fidelity, self.process):
             return ParticipantComponent(lambda: QuadrotorWorld(spec), self.name).start(environment)
-        command = _participant_command("multicosim.px4._world:world", spec)
-        return ProcessComponent(command, name=self.name).start(environment)
+        return _start_participant(
+            environment, self.name, "multicosim.px4._world:world", spec, self.image
+        )
 
 
 class PX4Node:
@@ -125,6 +197,16 @@ class PX4Node:
     def autopilot(self) -> Autopilot | None:
         """The live autopilot object when it runs in this process (for inspection)."""
         return getattr(self._autopilot, "participant", None)
+
+    @property
+    def container(self) -> ContainerNode | None:
+        """The autopilot's container node when it runs in one (the docker backend)."""
+        # Also how a ContainerSimulation finds it, to signal it at stop with the others.
+        # Without the docker backend loaded there is no container (and no SDK to import).
+        components = sys.modules.get("multicosim.docker._components")
+        if components is not None and isinstance(self._autopilot, components.ContainerNode):
+            return cast("ContainerNode", self._autopilot)
+        return None
 
     def send(self, msg: Configuration) -> MissionResult:
         """Fly the mission in ``msg`` and return its result."""
@@ -157,6 +239,8 @@ class PX4Component:
     ``world`` tells it where home is and which topics carry the sensors (``topics``
     overrides the autopilot's side only, to read from an injector); ``params`` sets PX4
     parameters (``MPC_XY_CRUISE``, ``NAV_ACC_RAD``, ...); ``geofence`` bounds missions.
+    The autopilot runs where WorldComponent's world does (``process``, ``image``); the
+    ground station always runs in this process.
     """
 
     world: MuJoCo = dataclasses.field(default_factory=MuJoCo)
@@ -167,6 +251,11 @@ class PX4Component:
     telemetry_rate: float | None = None
     topics: Topics | None = None
     process: bool | None = None
+    image: str | None = None
+
+    def required_images(self) -> tuple[str, ...]:
+        """The image the autopilot runs in, if any (checked before a ContainerSimulator starts)."""
+        return (self.image,) if self.image is not None else ()
 
     @property
     def rate(self) -> float:
@@ -181,6 +270,7 @@ class PX4Component:
             raise ConfigurationError("world", self.world, "a px4.MuJoCo configuration")
         if not isinstance(self.geofence, Geofence):
             raise ConfigurationError("geofence", self.geofence, "a px4.Geofence")
+        _check_image(self.image)
         self.spec  # noqa: B018 - validates params, rates and topics now, before any start
 
     @property
@@ -204,15 +294,16 @@ class PX4Component:
         )
 
     def start(self, environment: LocalEnvironment) -> PX4Node:
-        """Start the autopilot (in-process or as a process) and the ground station."""
+        """Start the autopilot (in-process, a process or a container) and the ground station."""
         spec = self.spec
-        if _in_process(self.fidelity, self.process):
+        if self.image is None and _in_process(self.fidelity, self.process):
             autopilot: Node = ParticipantComponent(lambda: Autopilot(spec), self.name).start(
                 environment
             )
         else:
-            command = _participant_command("multicosim.px4._autopilot:autopilot", spec)
-            autopilot = ProcessComponent(command, name=self.name).start(environment)
+            autopilot = _start_participant(
+                environment, self.name, "multicosim.px4._autopilot:autopilot", spec, self.image
+            )
         try:
             gcs_spec = GcsSpec(
                 uplink=spec.uplink,
@@ -238,6 +329,12 @@ class PX4Simulation:
         self.simulation = simulation
         self.firmware: PX4Node = simulation.get(firmware_id)
         self.world: Node = simulation.get(world_id)
+
+    def trace_options(self) -> TraceOptions:
+        """What a recorder of this simulation should know (truth type, Foxglove channels)."""
+        from ._trace import trace_options
+
+        return trace_options(self.firmware._component.world)
 
     @property
     def time(self) -> float:
@@ -266,10 +363,13 @@ class PX4Simulation:
 class PX4:
     """A Simulator with the quadrotor world and PX4 already added (the paper's ``px4.PX4``).
 
-    ``fidelity`` chooses the models ("low": point mass in-process, "medium": MuJoCo, world
-    and autopilot as processes); ``seed`` fixes every random source; ``realtime`` paces the
-    simulation to wall time (for external ground stations). More components (injectors,
-    monitors) can be added with ``add`` before ``start``.
+    ``fidelity`` picks the models ("low": point mass; "medium": MuJoCo; "high": MuJoCo at a
+    finer step, ``HIGH_FIDELITY_WORLD``, unless ``world`` is given); ``backend`` where the
+    world and the autopilot run ("process": in this process at low fidelity, else local
+    processes; "docker": containers of ``multicosim.docker.RUNTIME_IMAGE``, built with
+    ``python -m multicosim.docker build``). ``seed`` fixes every random source;
+    ``realtime`` paces the simulation to wall time (for external ground stations). More
+    components (injectors, monitors) can be added with ``add`` before ``start``.
     """
 
     def __init__(
@@ -286,34 +386,81 @@ class PX4:
         autopilot_topics: Topics | None = None,
         run_dir: str | None = None,
     ) -> None:
-        world = world if world is not None else MuJoCo()
+        _check_fidelity(fidelity)
+        world = world if world is not None else default_world(fidelity)
         if not isinstance(world, MuJoCo):
             raise ConfigurationError("world", world, "a px4.MuJoCo configuration")
-        _check_fidelity(fidelity)
-        if backend != "process":
+        if backend not in BACKENDS:
             raise ConfigurationError(
                 "backend",
                 backend,
-                "'process' (PX4 in containers needs a PX4 image; see multicosim.px4.real)",
+                f"one of {BACKENDS} (a real PX4 SITL image: see multicosim.px4.real)",
             )
         self.world = world
-        self.fidelity = fidelity
-        self._sim = ProcessSimulator(seed=seed, realtime=realtime, run_dir=run_dir)
-        self.world_id: NodeId[Node] = self._sim.add(WorldComponent(world, fidelity))
-        self.firmware_id: NodeId[PX4Node] = self._sim.add(
-            PX4Component(
-                world,
-                fidelity,
-                geofence=geofence or Geofence(),
-                params=dict(params or {}),
-                telemetry_rate=telemetry_rate,
-                topics=autopilot_topics,
-            )
-        )
+        self.fidelity: Fidelity = fidelity
+        self.backend: Backend = backend
+        self._sim: ProcessSimulator | ContainerSimulator
+        image: str | None = None
+        if backend == "docker":
+            from ..docker import RUNTIME_IMAGE, ContainerSimulator
 
-    def add(self, component: Component[LocalEnvironment, Any]) -> NodeId[Any]:
-        """Add another component (an injector, a monitor) to the simulation."""
-        return self._sim.add(component)
+            self._sim = ContainerSimulator(seed=seed, realtime=realtime, run_dir=run_dir)
+            image = RUNTIME_IMAGE
+        else:
+            self._sim = ProcessSimulator(seed=seed, realtime=realtime, run_dir=run_dir)
+        self.world_id: NodeId[Node] = self._sim.add(WorldComponent(world, fidelity, image=image))
+        self._firmware = PX4Component(
+            world,
+            fidelity,
+            geofence=geofence or Geofence(),
+            params=dict(params or {}),
+            telemetry_rate=telemetry_rate,
+            topics=autopilot_topics,
+            image=image,
+        )
+        self.firmware_id: NodeId[PX4Node] = self._sim.add(self._firmware)
+
+    @property
+    def autopilot_topics(self) -> Topics:
+        """The topics the autopilot reads its sensors from."""
+        return self._firmware.topics or self.world.topics
+
+    @property
+    def wire(self) -> Wire:
+        """How sensor payloads travel between world and autopilot (an injector must match).
+
+        Native Structs at low fidelity, MAVLink HIL frames above, on both backends.
+        """
+        return self._firmware.spec.wire
+
+    def remap(self, sensor: str, topic: str) -> None:
+        """Have the autopilot read ``sensor`` (imu, mag, baro, gps) from ``topic`` instead.
+
+        Before start; an injector then fills ``topic`` from the world's topic.
+        """
+        if sensor not in ("imu", "mag", "baro", "gps"):
+            raise ConfigurationError("sensor", sensor, "one of 'imu', 'mag', 'baro', 'gps'")
+        topics = Topics(**{**msgspec.structs.asdict(self.autopilot_topics), sensor: topic})
+        self._firmware = dataclasses.replace(self._firmware, topics=topics)
+        self._sim.replace(self.firmware_id, self._firmware)
+
+    def add(self, component: Component[ContainerEnvironment, Any]) -> NodeId[Any]:
+        """Add another component (an injector, a monitor) to the simulation.
+
+        Any component runs on the docker backend; container components need it.
+        """
+        if self.backend != "docker" and _needs_images(component):
+            raise ConfigurationError(
+                "component",
+                component,
+                "a component of the process backend (containers need backend='docker')",
+            )
+        # Typed for the docker backend, which takes every component; the process backend
+        # gets no container component (refused above).
+        # Before the autopilot: what an injector publishes reaches it in the same instant.
+        return self._sim.add(
+            cast("Component[LocalEnvironment, Any]", component), before=self.firmware_id
+        )
 
     def start(self) -> PX4Simulation:
         """Start the world and PX4 (and anything added); return the simulation."""

@@ -7,12 +7,30 @@
     simulation = rover.Rover(fidelity="medium").start()
     trajectory = simulation.controller.send(rover.Mission(speed=5.0))
     simulation.stop()
+
+Fidelity picks the models, the backend picks where they run:
+
+=========  ===============================  ==================================================
+fidelity   world                            ``backend="process"`` / ``backend="docker"``
+=========  ===============================  ==================================================
+low        kinematic bicycle, ideal         world and controller in this process (no IPC) /
+           sensors                          each a container of the runtime image
+medium     MuJoCo, 2.5 ms step, 40 Hz       world and controller as local processes /
+           sensors, realistic noise         each a container on the simulation's network
+high       MuJoCo, 0.5 ms step, 200 solver  as medium
+           iterations, 100 Hz sensors,
+           realistic noise
+=========  ===============================  ==================================================
+
+The components run the same programs everywhere (``world_command``, ``CONTROLLER_COMMAND``),
+so a seed gives the same trajectory on both backends at the same fidelity.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
-from typing import Literal, TypeVar
+from typing import TYPE_CHECKING, Any, Literal, TypeVar, cast, overload
 
 from .._errors import ConfigurationError
 from .._interfaces import CommunicationNode, Component, Node, NodeId
@@ -32,6 +50,10 @@ from ._kinematic import KinematicWorld
 from ._messages import Mission, Trajectory
 from ._vehicle import WHEELBASE, RoverWorldConfig, SensorNoise
 
+if TYPE_CHECKING:
+    from ..docker import ContainerEnvironment, ContainerSimulator
+    from ..trace import TraceOptions
+
 __all__ = [
     "BACKENDS",
     "CONTROLLER_COMMAND",
@@ -49,9 +71,9 @@ __all__ = [
 NodeT = TypeVar("NodeT", bound=Node)
 
 Fidelity = Literal["low", "medium", "high"]
-Backend = Literal["process"]
+Backend = Literal["process", "docker"]
 FIDELITIES: tuple[Fidelity, ...] = ("low", "medium", "high")
-BACKENDS: tuple[str, ...] = ("process",)
+BACKENDS: tuple[Backend, ...] = ("process", "docker")
 
 WORLD_NAME = "world"
 CONTROLLER_NAME = "controller"
@@ -78,40 +100,116 @@ def default_noise(fidelity: Fidelity) -> SensorNoise:
     return SensorNoise() if fidelity == "low" else SensorNoise.realistic()
 
 
+def _default_config(fidelity: Fidelity) -> RoverWorldConfig:
+    return RoverWorldConfig(world=default_world(fidelity), noise=default_noise(fidelity))
+
+
 # The component programs (the same in a local process and in a container).
 CONTROLLER_COMMAND = ("multicosim", "serve", "multicosim.rover:controller", "--port", "{port}")
+# In a container the firmware must listen on the container's network address: its port is
+# published to the host from there.
+CONTAINER_PORT = 5556
 
 
-def world_command(config: RoverWorldConfig) -> list[str]:
-    """The command running the MuJoCo rover world configured by ``config``."""
-    return [
-        "multicosim",
-        "participant",
-        "multicosim.mujoco:rover_world",
-        "--config",
-        config_json(config),
-    ]
+def world_command(
+    config: RoverWorldConfig | None = None, fidelity: Fidelity = "medium"
+) -> list[str]:
+    """The command running the rover world configured by ``config``.
+
+    The MuJoCo world, or the kinematic one at ``fidelity="low"``; without ``config``, the
+    world and sensor noise ``fidelity`` uses by default.
+    """
+    config = config or _default_config(fidelity)
+    factory = (
+        "multicosim.rover:kinematic_world" if fidelity == "low" else "multicosim.mujoco:rover_world"
+    )
+    return ["multicosim", "participant", factory, "--config", config_json(config)]
 
 
+def _needs_images(component: object) -> bool:
+    """Whether ``component`` runs containers (it names images it needs)."""
+    images = getattr(component, "required_images", None)
+    return callable(images) and bool(images())
+
+
+def _check_backend(backend: object) -> None:
+    if backend not in BACKENDS:
+        raise ConfigurationError("backend", backend, f"one of {BACKENDS}")
+
+
+def _runtime_image() -> str:
+    from ..docker import RUNTIME_IMAGE
+
+    return RUNTIME_IMAGE
+
+
+@overload
+def world_component(
+    fidelity: Fidelity = ...,
+    config: RoverWorldConfig | None = ...,
+    *,
+    name: str = ...,
+    backend: Literal["process"] = ...,
+) -> Component[LocalEnvironment, Node]: ...
+@overload
+def world_component(
+    fidelity: Fidelity = ...,
+    config: RoverWorldConfig | None = ...,
+    *,
+    name: str = ...,
+    backend: Backend,
+) -> Component[ContainerEnvironment, Node]: ...
 def world_component(
     fidelity: Fidelity = "medium",
     config: RoverWorldConfig | None = None,
     *,
     name: str = WORLD_NAME,
-) -> Component[LocalEnvironment, Node]:
-    """The rover world at ``fidelity``: kinematic in-process (low) or a MuJoCo process."""
-    config = config or RoverWorldConfig(
-        world=default_world(fidelity), noise=default_noise(fidelity)
-    )
+    backend: Backend = "process",
+) -> Component[Any, Node]:
+    """The rover world at ``fidelity``, run where ``backend`` says.
+
+    Process backend: the kinematic world in-process (low) or a MuJoCo process. Docker
+    backend: a participant container of the runtime image, at every fidelity.
+    """
+    _check_backend(backend)
+    config = config or _default_config(fidelity)
+    if backend == "docker":
+        from ..docker import ContainerComponent
+
+        return ContainerComponent(_runtime_image(), world_command(config, fidelity), name=name)
     if fidelity == "low":
         return ParticipantComponent(lambda: KinematicWorld(config), name=name)
-    return ProcessComponent(["python", "-m", *world_command(config)], name=name)
+    return ProcessComponent(["python", "-m", *world_command(config, fidelity)], name=name)
 
 
+@overload
 def controller_component(
-    fidelity: Fidelity = "medium", *, name: str = CONTROLLER_NAME
-) -> Component[LocalEnvironment, CommunicationNode[Mission, Trajectory]]:
-    """The FSA controller: in-process at low fidelity, else a firmware process."""
+    fidelity: Fidelity = ..., *, name: str = ..., backend: Literal["process"] = ...
+) -> Component[LocalEnvironment, CommunicationNode[Mission, Trajectory]]: ...
+@overload
+def controller_component(
+    fidelity: Fidelity = ..., *, name: str = ..., backend: Backend
+) -> Component[ContainerEnvironment, CommunicationNode[Mission, Trajectory]]: ...
+def controller_component(
+    fidelity: Fidelity = "medium", *, name: str = CONTROLLER_NAME, backend: Backend = "process"
+) -> Component[Any, CommunicationNode[Mission, Trajectory]]:
+    """The FSA controller, run where ``backend`` says.
+
+    Process backend: in-process at low fidelity, else a firmware process. Docker backend: a
+    FirmwareComponent of the runtime image, at every fidelity.
+    """
+    _check_backend(backend)
+    if backend == "docker":
+        from ..docker import FirmwareComponent
+
+        return FirmwareComponent(
+            image=_runtime_image(),
+            command=[*CONTROLLER_COMMAND, "--host", "0.0.0.0"],
+            port=CONTAINER_PORT,
+            msgtype=Mission,
+            replytype=Trajectory,
+            name=name,
+        )
     if fidelity == "low":
         return InProcessFirmwareComponent(controller, name=name)
     return FirmwareProcessComponent(
@@ -131,11 +229,21 @@ class RoverSimulation:
         controller_id: NodeId[CommunicationNode[Mission, Trajectory]],
         world_id: NodeId[Node],
         fidelity: Fidelity,
+        backend: Backend = "process",
+        world_config: WorldConfig | None = None,
     ) -> None:
         self.simulation = simulation
         self.fidelity = fidelity
+        self.backend: Backend = backend
+        self.world_config = world_config or default_world(fidelity)
         self._controller_id = controller_id
         self._world_id = world_id
+
+    def trace_options(self) -> TraceOptions:
+        """What a recorder of this simulation should know (topic types, Foxglove channels)."""
+        from ._trace import trace_options
+
+        return trace_options(self.world_config)
 
     @property
     def controller(self) -> CommunicationNode[Mission, Trajectory]:
@@ -144,7 +252,7 @@ class RoverSimulation:
 
     @property
     def world(self) -> Node:
-        """The world node (a participant in-process, or a process)."""
+        """The world node (a participant in-process, a process or a container)."""
         return self.simulation.get(self._world_id)
 
     @property
@@ -176,23 +284,30 @@ class RoverSimulation:
         self.stop()
 
     def __repr__(self) -> str:
-        return f"RoverSimulation(fidelity={self.fidelity!r}, time={self.time:g})"
+        return (
+            f"RoverSimulation(fidelity={self.fidelity!r}, backend={self.backend!r}, "
+            f"time={self.time:g})"
+        )
 
 
 class Rover:
     """The rover scenario Simulator: a world and the FSA controller, at a fidelity level.
 
-    ``fidelity``: ``low`` (kinematic bicycle, controller in-process, no IPC), ``medium``
-    (MuJoCo world and controller as separate processes in lockstep) or ``high`` (MuJoCo at
-    a finer timestep). ``world`` overrides the physics world configuration, ``noise`` the
-    sensor noise (ideal at low fidelity, realistic above). Components added with ``add``
-    (injectors, monitors) step between the world and the controller, in add order.
+    ``fidelity`` picks the models: ``low`` (kinematic bicycle, ideal sensors), ``medium``
+    (MuJoCo, realistic sensor noise) or ``high`` (MuJoCo at a finer timestep with more
+    solver iterations and faster sensors). ``backend`` picks where they run: ``process``
+    (in this process at low fidelity, else world and controller as local processes in
+    lockstep) or ``docker`` (each a container of ``multicosim.docker.RUNTIME_IMAGE`` on the
+    simulation's network; build it with ``python -m multicosim.docker build``).
+    ``world`` overrides the physics world configuration, ``noise`` the sensor noise.
+    Components added with ``add`` (injectors, monitors) step between the world and the
+    controller, in add order; on the docker backend they may be containers too.
     """
 
     def __init__(
         self,
         fidelity: Fidelity = "medium",
-        backend: str = "process",
+        backend: Backend = "process",
         seed: int = 0,
         world: WorldConfig | None = None,
         noise: SensorNoise | None = None,
@@ -201,35 +316,74 @@ class Rover:
     ) -> None:
         if fidelity not in FIDELITIES:
             raise ConfigurationError("fidelity", fidelity, f"one of {FIDELITIES}")
-        if backend not in BACKENDS:
-            raise ConfigurationError(
-                "backend", backend, f"one of {BACKENDS} (docker comes with the Docker backend)"
-            )
+        _check_backend(backend)
         if world is not None and not isinstance(world, WorldConfig):
             raise ConfigurationError("world", world, "a multicosim.mujoco.WorldConfig or None")
         if noise is not None and not isinstance(noise, SensorNoise):
             raise ConfigurationError("noise", noise, "a SensorNoise or None")
         self.fidelity: Fidelity = fidelity
-        self.backend = backend
+        self.backend: Backend = backend
         self.config = RoverWorldConfig(
             world=world or default_world(fidelity), noise=noise or default_noise(fidelity)
         )
-        self._simulator = ProcessSimulator(seed=seed, realtime=realtime)
+        self._simulator: ProcessSimulator | ContainerSimulator
+        if backend == "docker":
+            from ..docker import ContainerSimulator
+
+            self._simulator = ContainerSimulator(seed=seed, realtime=realtime)
+        else:
+            self._simulator = ProcessSimulator(seed=seed, realtime=realtime)
         self.seed = seed
-        self._world_id = self._simulator.add(world_component(fidelity, self.config))
+        self._world_id = self._add(world_component(fidelity, self.config, backend=backend))
         self._started = False
 
-    def add(self, component: Component[LocalEnvironment, NodeT]) -> NodeId[NodeT]:
-        """Add a component; it steps after the world and before the controller."""
-        return self._simulator.add(component)
+    def _add(self, component: Component[ContainerEnvironment, NodeT]) -> NodeId[NodeT]:
+        # Typed for the docker backend, which takes every component; the process backend
+        # gets no container component (``add`` refuses them, the scenario's own match it).
+        return self._simulator.add(cast("Component[LocalEnvironment, NodeT]", component))
+
+    def add(self, component: Component[ContainerEnvironment, NodeT]) -> NodeId[NodeT]:
+        """Add a component; it steps after the world and before the controller.
+
+        Any component runs on the docker backend; container components need it.
+        """
+        if self.backend != "docker" and _needs_images(component):
+            raise ConfigurationError(
+                "component",
+                component,
+                "a component of the process backend (containers need backend='docker')",
+            )
+        return self._add(component)
+
+    def remap(self, sensor: str, topic: str) -> None:
+        """Have the world publish ``sensor`` on ``topic`` instead (before start).
+
+        An injector added with ``add`` then republishes it on the topic the controller reads.
+        """
+        topics = {**self.config.world.sensor_topics, sensor: topic}
+        world = dataclasses.replace(self.config.world, sensor_topics=topics)
+        self.config = dataclasses.replace(self.config, world=world)  # checks the sensor name
+        world_node = world_component(self.fidelity, self.config, backend=self.backend)
+        self._simulator.replace(
+            self._world_id, cast("Component[LocalEnvironment, Node]", world_node)
+        )
 
     def start(self) -> RoverSimulation:
         """Start the world, the added components and the controller."""
         if not self._started:
             self._started = True
-            self._controller_id = self._simulator.add(controller_component(self.fidelity))
+            self._controller_id = self._add(
+                controller_component(self.fidelity, backend=self.backend)
+            )
         simulation = self._simulator.start()
-        return RoverSimulation(simulation, self._controller_id, self._world_id, self.fidelity)
+        return RoverSimulation(
+            simulation,
+            self._controller_id,
+            self._world_id,
+            self.fidelity,
+            self.backend,
+            self.config.world,
+        )
 
     def __repr__(self) -> str:
         return f"Rover(fidelity={self.fidelity!r}, backend={self.backend!r}, seed={self.seed})"

@@ -31,16 +31,22 @@ def test_px4_simulation_is_stopped_even_when_the_test_fails(pytester: pytest.Pyt
     result.stdout.fnmatch_lines(["*AssertionError: boom*"])
 
 
-def test_px4_fixtures_skip_outside_their_levels(pytester: pytest.Pytester) -> None:
+def test_high_fidelity_runs_our_autopilot_and_real_px4_needs_a_sitl(
+    pytester: pytest.Pytester,
+) -> None:
     pytester.makepyfile(
         """
-        def test_sim(px4_simulation):
-            pass
+        import multicosim.px4 as px4
+
+        def test_sim(px4_simulator, px4_simulation):
+            assert px4_simulator.world == px4.HIGH_FIDELITY_WORLD
+            assert px4_simulation.firmware.autopilot is None  # a process at high fidelity
+            px4_simulation.advance(0.5)
 
         def test_real(px4_real):
             pass
         """
     )
     result = pytester.runpytest("--mcs-fidelity=high", "-p", "no:cacheprovider", "-rs")
-    result.assert_outcomes(skipped=2)
-    result.stdout.fnmatch_lines(["*real PX4 SITL*", "*no real PX4 SITL configured*"])
+    result.assert_outcomes(passed=1, skipped=1)
+    result.stdout.fnmatch_lines(["*no real PX4 SITL configured*"])

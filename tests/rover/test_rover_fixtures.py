@@ -42,10 +42,3 @@ def test_rover_fixtures(pytester: pytest.Pytester) -> None:
         "--mcs-fidelity=low,medium", "--mcs-seed=7", "-p", "no:cacheprovider"
     )
     result.assert_outcomes(passed=3, skipped=1)
-
-
-def test_unsupported_backend_skips_with_the_reason(pytester: pytest.Pytester) -> None:
-    pytester.makepyfile(test_suite="def test_it(rover_simulation):\n    pass\n")
-    result = pytester.runpytest("--mcs-backend=docker", "-rs", "-p", "no:cacheprovider")
-    result.assert_outcomes(skipped=1)
-    result.stdout.fnmatch_lines(["*rover scenario does not run on the 'docker' backend*"])

@@ -40,7 +40,6 @@ def _distance_to_plan(trajectory: Trajectory, mission: Mission) -> float:
     ("kwargs", "field"),
     [
         ({"fidelity": "ultra"}, "fidelity"),
-        ({"backend": "docker"}, "backend"),
         ({"backend": "kubernetes"}, "backend"),
         ({"seed": -1}, "seed"),
         ({"world": {"timestep": 0.001}}, "world"),

@@ -1,0 +1,58 @@
+"""Sensor faults and attacks: an injector between a sensor and the firmware that reads it.
+
+The paper's noisy-GPS case study. The world publishes a sensor on a remapped topic; the
+injector reads it there, corrupts it with seeded, combinable models, each active from
+``start`` to ``end``, and publishes it where the firmware expects it::
+
+    import multicosim.attacks as attacks
+    import multicosim.rover as rover
+
+    simulator = rover.Rover(fidelity="low")
+    attacks.inject(
+        simulator,
+        "gps",
+        [attacks.Gaussian(std=0.5), attacks.Jump(offset=(0.0, 4.0, 0.0), start=3.0, ramp=2.0)],
+    )
+    with simulator.start() as simulation:
+        trajectory = simulation.controller.send(rover.Mission(speed=3.0))
+
+Models: :class:`Gaussian` noise, :class:`Bias`, random-walk :class:`Drift`, :class:`Jump`
+(a spoof, optionally ramped), :class:`Dropout`, :class:`Delay`. Sensors: the rover's
+``position`` (alias ``gps``), ``magnetometer``, ``imu``, ``wheel_speed``; PX4's ``gps``,
+``mag``, ``baro``, ``imu``. Quantities (what additive models offset, ``on=``): positions in
+metres east/north/up, ``heading`` in radians, fields and rates per body axis.
+"""
+
+from __future__ import annotations
+
+from ._injector import PROGRAM, InjectorComponent, InjectorConfig, SensorInjector, injector
+from ._models import Additive, Bias, Delay, Drift, Dropout, Gaussian, Jump, Model, Window, is_zero
+from ._scenarios import inject, vehicle_of
+from ._sensors import ALIASES, SENSORS, VEHICLES, Quantity, Sensor, Vehicle, sensor
+
+__all__ = [
+    "ALIASES",
+    "PROGRAM",
+    "SENSORS",
+    "VEHICLES",
+    "Additive",
+    "Bias",
+    "Delay",
+    "Drift",
+    "Dropout",
+    "Gaussian",
+    "InjectorComponent",
+    "InjectorConfig",
+    "Jump",
+    "Model",
+    "Quantity",
+    "Sensor",
+    "SensorInjector",
+    "Vehicle",
+    "Window",
+    "inject",
+    "injector",
+    "is_zero",
+    "sensor",
+    "vehicle_of",
+]

@@ -1,0 +1,231 @@
+"""The sensor injector: a participant between a sensor's raw topic and its reader.
+
+It subscribes to ``source`` (where the world now publishes the sensor, after remapping),
+corrupts each reading with its models and publishes it on ``target`` (the topic the
+firmware reads). Added between world and firmware, it steps in the same instant as the world
+(the scheduler steps components in add order), so it adds no delay of its own and an
+injector whose models are all zero leaves the run bit-for-bit unchanged.
+
+The same program runs in-process, as a process
+(``python -m multicosim participant multicosim.attacks:injector --config JSON``) or in a
+container of the runtime image.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import sys
+from collections import deque
+from typing import TYPE_CHECKING, Any
+
+import msgspec
+
+from .._clock import NS
+from .._errors import ConfigurationError
+from .._interfaces import Node
+from .._local import LocalEnvironment, ParticipantComponent, ProcessComponent, config_json
+from ._models import MODEL_TYPES, Additive, Delay, Dropout, Model, Offsets, broadcast
+from ._sensors import Sensor, Vehicle, Wire, canonical, sensor
+
+if TYPE_CHECKING:
+    from .._runtime import StepContext, Subscription
+
+__all__ = ["PROGRAM", "InjectorComponent", "InjectorConfig", "SensorInjector", "injector"]
+
+PROGRAM = "multicosim.attacks:injector"
+WIRES: tuple[Wire, ...] = ("native", "mavlink")
+
+
+def _topic(field: str, value: object) -> str:
+    if not isinstance(value, str) or not value or value != value.strip():
+        raise ConfigurationError(field, value, "a non-empty topic name")
+    return value
+
+
+class InjectorConfig(msgspec.Struct, frozen=True, kw_only=True):
+    """What one injector does: which sensor, from which topic to which, with which models.
+
+    ``vehicle`` and ``sensor`` name the message (``"rover"``: ``position``/``gps``,
+    ``magnetometer``, ``imu``, ``wheel_speed``; ``"px4"``: ``gps``, ``mag``, ``baro``,
+    ``imu``); ``source`` is the raw topic read, ``target`` the topic written; ``period``
+    (s) is how often it steps (the world's publishing period, so readings pass in the
+    instant they are published); ``wire`` is how PX4 payloads travel (``native`` Structs or
+    packed ``mavlink`` frames). Validated on construction.
+    """
+
+    vehicle: Vehicle
+    sensor: str
+    source: str
+    target: str
+    period: float
+    models: tuple[Model, ...] = ()
+    wire: Wire = "native"
+
+    def __post_init__(self) -> None:
+        name = canonical(self.vehicle, self.sensor)
+        msgspec.structs.force_setattr(self, "sensor", name)
+        _topic("source", self.source)
+        _topic("target", self.target)
+        if self.source == self.target:
+            raise ConfigurationError(
+                "target", self.target, f"a topic other than source ({self.source!r})"
+            )
+        period = self.period
+        if (
+            isinstance(period, bool)
+            or not isinstance(period, int | float)
+            or not math.isfinite(period)
+            or not 0 < period <= 1.0
+        ):
+            raise ConfigurationError("period", period, "0 < period <= 1 s")
+        if self.wire not in WIRES:
+            raise ConfigurationError("wire", self.wire, f"one of {WIRES}")
+        if self.wire == "mavlink" and self.vehicle != "px4":
+            raise ConfigurationError("wire", self.wire, f"'native' for the {self.vehicle}")
+        models: object = self.models
+        if isinstance(models, list):
+            models = tuple(models)
+            msgspec.structs.force_setattr(self, "models", models)
+        if not isinstance(models, tuple):
+            raise ConfigurationError("models", models, "a sequence of attack models")
+        spec = self.spec
+        for i, model in enumerate(self.models):
+            if not isinstance(model, MODEL_TYPES):
+                names = ", ".join(t.__name__ for t in MODEL_TYPES)
+                raise ConfigurationError(f"models[{i}]", model, f"one of {names}")
+            if isinstance(model, Additive):
+                quantity = model.on or spec.default
+                if quantity not in spec.quantities:
+                    raise ConfigurationError(
+                        f"models[{i}].on",
+                        model.on,
+                        f"a quantity of the {self.vehicle} {self.sensor} "
+                        f"({spec.message.__name__}): one of {tuple(spec.quantities)}",
+                    )
+                size = spec.quantities[quantity].size
+                for field, values in model.vectors().items():
+                    broadcast(f"models[{i}].{field}", values, size, quantity)
+
+    @property
+    def spec(self) -> Sensor:
+        """The sensor's message and quantities."""
+        return sensor(self.vehicle, self.sensor)
+
+
+class SensorInjector:
+    """The injector participant (see the module docstring)."""
+
+    def __init__(self, config: InjectorConfig) -> None:
+        self.config = config
+        self.period = config.period
+        self.sensor = config.spec
+        self.passed = 0
+        self.corrupted = 0
+        self.dropped = 0
+        self._sub: Subscription[Any] | None = None
+        self._offsets: dict[str, Offsets] = {}
+        by_quantity: dict[str, list[Additive]] = {}
+        for model in config.models:
+            if isinstance(model, Additive):
+                by_quantity.setdefault(model.on or self.sensor.default, []).append(model)
+        for quantity, models in by_quantity.items():
+            self._offsets[quantity] = Offsets(
+                models, self.sensor.quantities[quantity].size, quantity
+            )
+        self._dropouts = [m for m in config.models if isinstance(m, Dropout)]
+        self._delays = [m for m in config.models if isinstance(m, Delay) and m.delay > 0]
+        self._held: deque[tuple[int, Any]] = deque()
+
+    def setup(self, ctx: StepContext) -> None:
+        """Subscribe to the raw topic."""
+        self._sub = ctx.subscribe(self.config.source, self.sensor.payload_type(self.config.wire))
+
+    def step(self, ctx: StepContext) -> None:
+        """Corrupt what arrived since the last step; publish what is due."""
+        sub = self._sub
+        assert sub is not None, "setup() was not called"
+        if sub._deliveries:
+            # Each reading is judged at the time it was published, not at this step.
+            for delivery, payload in zip(sub._deliveries, sub.messages, strict=True):
+                self._receive(delivery.time_ns, payload, ctx)
+        held = self._held
+        while held and held[0][0] <= ctx.time_ns:
+            ctx.publish(self.config.target, held.popleft()[1])
+
+    def _receive(self, time_ns: int, payload: Any, ctx: StepContext) -> None:
+        time = time_ns / NS
+        if any(m.active(time) for m in self._dropouts):
+            self.dropped += 1
+            return
+        out = payload
+        if self._offsets:
+            message = self.sensor.read(payload)
+            if message is not None:
+                changed = message
+                for quantity, offsets in self._offsets.items():
+                    delta = offsets.at(time, ctx.rng)
+                    if delta is not None and any(delta):
+                        changed = self.sensor.apply(changed, quantity, delta)
+                if changed is not message:
+                    out = self.sensor.write(changed, self.config.wire)
+                    self.corrupted += 1
+        delay = max((m.delay for m in self._delays if m.active(time)), default=0.0)
+        if delay > 0 or self._held:
+            # Held readings leave in order: one never overtakes an earlier one.
+            release = time_ns + round(delay * NS)
+            if self._held:
+                release = max(release, self._held[-1][0])
+            self._held.append((release, out))
+            return
+        self.passed += 1
+        ctx.publish(self.config.target, out)
+
+
+def injector(config: InjectorConfig) -> SensorInjector:
+    """Factory of the injector program (``multicosim participant multicosim.attacks:injector``)."""
+    return SensorInjector(config)
+
+
+@dataclasses.dataclass(frozen=True)
+class InjectorComponent:
+    """The injector as a component: in-process, a local process, or a container.
+
+    ``process`` runs it as a local process (the medium fidelity way) instead of in the
+    simulation's process; ``container()`` gives the same program as a container component
+    for the Docker backend.
+    """
+
+    config: InjectorConfig
+    name: str = "injector"
+    process: bool = False
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.config, InjectorConfig):
+            raise ConfigurationError("config", self.config, "a multicosim.attacks.InjectorConfig")
+        if not isinstance(self.name, str) or not self.name:
+            raise ConfigurationError("name", self.name, "a non-empty component name")
+
+    @property
+    def command(self) -> list[str]:
+        """The injector program's command line (after ``python -m``)."""
+        return ["multicosim", "participant", PROGRAM, "--config", config_json(self.config)]
+
+    def container(self, image: str | None = None) -> Any:
+        """The injector as a ``multicosim.docker.ContainerComponent`` of the same program.
+
+        ``image`` defaults to the runtime image; attach it to the world's network stack
+        with ``AttachedComponent`` where a scenario wants the paper's layout.
+        """
+        from ..docker import RUNTIME_IMAGE, ContainerComponent
+
+        return ContainerComponent(image or RUNTIME_IMAGE, self.command, name=self.name)
+
+    def start(self, environment: LocalEnvironment) -> Node:
+        """Start the injector in this process, or as a local process (``process``)."""
+        if self.process:
+            return ProcessComponent([sys.executable, "-m", *self.command], name=self.name).start(
+                environment
+            )
+        config = self.config
+        return ParticipantComponent(lambda: SensorInjector(config), self.name).start(environment)

@@ -1,0 +1,116 @@
+"""Placing an injector in the shipped scenarios (the rover and PX4 Simulators).
+
+:func:`inject` remaps the sensor's topic, builds the injector for the scenario's fidelity and
+backend (in-process at low fidelity, a local process above, a container on the Docker
+backend) and adds it so that it steps after the world and before the firmware::
+
+    simulator = rover.Rover(fidelity="low")
+    attacks.inject(simulator, "gps", [attacks.Jump(offset=(3.0, 0.0, 0.0), start=2.0)])
+    simulation = simulator.start()
+
+The rover's world publishes the sensor on ``<topic>/raw`` instead (``WorldConfig.sensor_topics``)
+and the injector republishes on the topic the controller reads; PX4's autopilot reads
+``<topic>/attacked`` instead (``px4.Topics``) and the injector fills it from the world's topic.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+from .._errors import ConfigurationError, MulticosimError
+from ._injector import InjectorComponent, InjectorConfig
+from ._models import Model
+from ._sensors import Vehicle, canonical
+
+__all__ = ["inject", "vehicle_of"]
+
+
+def _unwrap(simulator: object) -> object:
+    # The pytest fixtures hand out a wrapper that tracks the simulation; it keeps the
+    # scenario's simulator as ``_inner``.
+    return getattr(simulator, "_inner", simulator)
+
+
+def vehicle_of(simulator: object) -> Vehicle:
+    """Which scenario ``simulator`` is (``"rover"`` or ``"px4"``); ConfigurationError if neither."""
+    from ..rover import Rover
+
+    inner = _unwrap(simulator)
+    if isinstance(inner, Rover):
+        return "rover"
+    from ..px4 import PX4
+
+    if isinstance(inner, PX4):
+        return "px4"
+    raise ConfigurationError(
+        "simulator", simulator, "a multicosim.rover.Rover or multicosim.px4.PX4 (not started)"
+    )
+
+
+def inject(
+    simulator: Any,
+    sensor: str,
+    models: Sequence[Model],
+    *,
+    name: str | None = None,
+) -> InjectorComponent:
+    """Put an injector with ``models`` on ``sensor`` of the scenario ``simulator``.
+
+    Returns the component that was added (its ``config`` says which topics it joins). Raises
+    ConfigurationError for an unknown sensor, a model that does not fit the sensor's
+    message, or a sensor that already has an injector.
+    """
+    vehicle = vehicle_of(simulator)
+    inner: Any = _unwrap(simulator)
+    sensor = canonical(vehicle, sensor)
+    name = name or f"{sensor}-injector"
+    if vehicle == "rover":
+        from ..rover import SENSOR_TOPICS
+
+        target = SENSOR_TOPICS[sensor]
+        source = f"{target}/raw"
+        if inner.config.world.sensor_topics.get(sensor, target) != target:
+            raise ConfigurationError(
+                "sensor", sensor, "a sensor without an injector (combine models in one)"
+            )
+        config = InjectorConfig(
+            vehicle="rover",
+            sensor=sensor,
+            source=source,
+            target=target,
+            period=inner.config.world.period,
+            models=tuple(models),
+        )
+        in_process = inner.fidelity == "low"
+    else:
+        from ..px4._simulator import LOW_PERIOD
+
+        source = getattr(inner.world.topics, sensor)
+        target = f"{source}/attacked"
+        if getattr(inner.autopilot_topics, sensor) != source:
+            raise ConfigurationError(
+                "sensor", sensor, "a sensor without an injector (combine models in one)"
+            )
+        in_process = inner.fidelity == "low" and inner.backend == "process"
+        config = InjectorConfig(
+            vehicle="px4",
+            sensor=sensor,
+            source=source,
+            target=target,
+            period=LOW_PERIOD if inner.fidelity == "low" else inner.world.period,
+            models=tuple(models),
+            # The world's wire: what the scenario's world and autopilot exchange (Structs at
+            # low fidelity, on either backend; MAVLink frames between processes above).
+            wire=inner.wire,
+        )
+    component = InjectorComponent(config, name=name, process=not in_process)
+    # Validate everything before the simulator changes: remap last.
+    added = component.container() if inner.backend == "docker" else component
+    try:
+        inner.add(added)
+    except MulticosimError as exc:
+        exc.add_note("add injectors before start(): use the *_simulator fixture, not *_simulation")
+        raise
+    inner.remap(sensor, source if vehicle == "rover" else target)
+    return component

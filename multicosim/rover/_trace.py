@@ -1,0 +1,90 @@
+"""What a trace of the rover scenario shows: typed topics, the map track and the 3-D pose."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from typing import Any
+
+from ..mujoco._config import WorldConfig
+from ..trace import (
+    LOCATION_CHANNEL,
+    POSE_CHANNEL,
+    POSE_IN_FRAME,
+    Converted,
+    TraceOptions,
+    location_fix,
+)
+from ._messages import (
+    ABORT_TOPIC,
+    COMMAND_TOPIC,
+    SENSOR_TOPICS,
+    Abort,
+    Command,
+    Imu,
+    MagneticField,
+    Position,
+    WheelSpeed,
+)
+
+__all__ = ["trace_options"]
+
+_TYPES: dict[str, type[Any]] = {
+    "position": Position,
+    "magnetometer": MagneticField,
+    "imu": Imu,
+    "wheel_speed": WheelSpeed,
+}
+
+
+def _fix(message: Any) -> tuple[float, float, float]:
+    return message["latitude"], message["longitude"], message["altitude"]
+
+
+class _Pose:
+    """``foxglove.PoseInFrame`` from the world's position and IMU orientation (ENU ``map``)."""
+
+    def __init__(self, position: str, imu: str) -> None:
+        self.topics = (position, imu)
+        self._position = position
+        self._latest: Any = None
+
+    def __call__(self, topic: str, time_ns: int, message: Any) -> Iterable[Converted]:
+        if topic == self._position:
+            self._latest = message
+            return ()
+        # The world publishes the position before the IMU in each instant: pair them then.
+        p = self._latest
+        if p is None:
+            return ()
+        w, x, y, z = message["orientation"]
+        pose = {
+            "timestamp": {"sec": time_ns // 1_000_000_000, "nsec": time_ns % 1_000_000_000},
+            "frame_id": "map",
+            "pose": {
+                "position": {"x": p["x"], "y": p["y"], "z": p["z"]},
+                "orientation": {"x": x, "y": y, "z": z, "w": w},
+            },
+        }
+        return (Converted(POSE_CHANNEL, POSE_IN_FRAME, pose),)
+
+
+def trace_options(world: WorldConfig) -> TraceOptions:
+    """Types of every rover topic (remapped ones too) and the Foxglove channels.
+
+    ``mcs/location`` and ``mcs/pose`` follow what the world publishes (the truth, when an
+    injector corrupts the controller's copy); ``mcs/location/sensed`` follows what the
+    controller reads when the position is remapped.
+    """
+    types: dict[str, type[Any]] = {COMMAND_TOPIC: Command, ABORT_TOPIC: Abort}
+    for name, topic in SENSOR_TOPICS.items():
+        types[topic] = types[world.topic(name, topic)] = _TYPES[name]
+    position = world.topic("position", SENSOR_TOPICS["position"])
+    converters: list[Any] = [
+        location_fix(position, _fix),
+        _Pose(position, world.topic("imu", SENSOR_TOPICS["imu"])),
+    ]
+    if position != SENSOR_TOPICS["position"]:
+        converters.append(
+            location_fix(SENSOR_TOPICS["position"], _fix, channel=f"{LOCATION_CHANNEL}/sensed")
+        )
+    return TraceOptions(types=types, converters=converters)
