@@ -15,7 +15,7 @@ import pytest
 
 import multicosim as mcs
 from multicosim import testing
-from multicosim._local import FirmwareNode, sweep_stale_runs
+from multicosim._local import FirmwareNode, _process_run_id, sweep_stale_runs
 
 CART = "python -m multicosim participant multicosim.testing:Cart"
 DRIVE = "python -m multicosim serve multicosim.testing:drive --port {port}"
@@ -357,6 +357,10 @@ def test_sweep_removes_processes_of_a_killed_run(tmp_path: Path) -> None:
     )
     unrelated = subprocess.Popen(["sleep", "60"], start_new_session=True)
     (run_dir / "pids").write_text(f"{leftover.pid}\n{unrelated.pid}\n")
+    # Until the child has exec'd, /proc shows the environment it inherited from us.
+    deadline = time.monotonic() + 10
+    while _process_run_id(leftover.pid) != run_dir.name and time.monotonic() < deadline:
+        time.sleep(0.01)
     try:
         assert sweep_stale_runs(tmp_path) == [leftover.pid]
         assert leftover.wait(5) == -signal.SIGKILL
