@@ -138,6 +138,8 @@ def falsify(
     seed: int = 0,
     optimizer: Any = None,
     trace_dir: str | Path | None = None,
+    executor: Any = None,
+    ray_address: str | None = None,
 ) -> TaliroResult:
     """Search ``static_inputs`` with psy-taliro (default: UniformRandom) at ``fidelity``.
 
@@ -145,6 +147,11 @@ def falsify(
     psy-taliro as ``seed + 1`` (it needs seeds > 0). With ``trace_dir``, the lowest
     robustness sample is simulated once more while recording, and its trace and plot are
     saved there.
+
+    With ``executor`` (``"process"``, ``"ray"``, or a :mod:`multicosim.campaign` executor)
+    or ``ray_address``, the optimizer's batches run through that executor, each sample with
+    the seed of its index (:func:`multicosim.campaign.sample_seed`); the default optimizer
+    then draws the whole budget as one batch (no early stop). ``simulate`` must be picklable.
     """
     if not static_inputs:
         raise ConfigurationError("static_inputs", static_inputs, "at least one input range")
@@ -165,8 +172,12 @@ def falsify(
     options = staliro.TestOptions(
         static_inputs=dict(static_inputs), iterations=iterations, seed=seed + 1
     )
-    opt = optimizer if optimizer is not None else staliro_optimizers.UniformRandom(min_cost=0.0)
-    runs = staliro.test(model(simulate, fidelity=fidelity), specification(req), opt, options)
+    if executor is None and ray_address is None:
+        opt = optimizer if optimizer is not None else staliro_optimizers.UniformRandom(min_cost=0.0)
+        runs = staliro.test(model(simulate, fidelity=fidelity), specification(req), opt, options)
+    else:
+        opt = optimizer if optimizer is not None else staliro_optimizers.UniformRandom()
+        runs = _run_on(executor, ray_address, simulate, req, opt, options, fidelity, seed)
     evaluations = [e for run in runs for e in run.evaluations]
     if not evaluations:
         raise ConfigurationError("iterations", iterations, "a budget that evaluates a sample")
@@ -185,6 +196,84 @@ def falsify(
         traces=traces,
         runs=runs,
     )
+
+
+@dataclasses.dataclass(frozen=True)
+class _Extra:
+    """What psy-taliro keeps with an evaluation (``.spec``, as its own cost function does)."""
+
+    model: Any
+    spec: Evaluation
+
+
+@dataclasses.dataclass(frozen=True)
+class _CampaignSimulate:
+    """``simulate(static, fidelity)`` as a campaign's ``(sample, fidelity, seed)``; the seed
+    reaches FreshSimulations through the worker's trace metadata."""
+
+    simulate: Simulate
+
+    def __call__(self, sample: Mapping[str, float], fidelity: str, seed: int) -> object:
+        return self.simulate(sample, fidelity)
+
+
+class _CampaignObjective:
+    """A psy-taliro objective whose batches are campaign batches."""
+
+    def __init__(self, campaign: Any, options: Any) -> None:
+        self.campaign = campaign
+        self.options = options
+        self.evaluations: list[Any] = []
+
+    def eval_sample(self, sample: Any) -> float:
+        return self.eval_samples([sample])[0]
+
+    def eval_samples(self, samples: Any) -> list[float]:
+        from ._errors import MulticosimError
+
+        inputs = [self.options.parse_sample(s) for s in samples]
+        static = [{str(k): float(v) for k, v in i.static.items()} for i in inputs]
+        results = self.campaign.evaluate(static)
+        for i, result in zip(inputs, results, strict=True):
+            if result.evaluation is None:
+                raise MulticosimError(f"sample {result.index} {result.status}: {result.error}")
+            self.evaluations.append(
+                staliro.Evaluation(i, result.robustness, _Extra(None, result.evaluation))
+            )
+        return [float(r.robustness) for r in results]
+
+
+def _run_on(
+    executor: Any,
+    ray_address: str | None,
+    simulate: Simulate,
+    requirement: Requirement,
+    optimizer: Any,
+    options: Any,
+    fidelity: str,
+    seed: int,
+) -> list[Any]:
+    import numpy as np
+
+    from .campaign import Campaign
+
+    with Campaign(
+        _CampaignSimulate(simulate),
+        requirement,
+        fidelity=fidelity,
+        seed=seed,
+        executor=executor,
+        ray_address=ray_address,
+        progress=False,
+    ) as campaign:
+        objective = _CampaignObjective(campaign, options)
+        # The optimizer's seed as staliro.test derives it: the same samples either way.
+        run_seed = int(np.random.default_rng(options.seed).integers(0, 2**32 - 1, dtype=int))
+        params = staliro_optimizers.Optimizer.Params(
+            seed=run_seed, budget=options.iterations, input_bounds=options.intervals()
+        )
+        outcome = optimizer.optimize(objective, params)
+    return [staliro.Run(outcome, objective.evaluations)]
 
 
 def _record(

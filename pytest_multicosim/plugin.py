@@ -56,6 +56,7 @@ class Settings:
     seed: int
     artifacts: Path
     keep_traces: str
+    ray: str | None = None
 
     def replay_args(self, fidelity: str | None) -> str:
         """Command-line options that replay a test with the same seed and fidelity."""
@@ -112,6 +113,13 @@ def pytest_addoption(parser: pytest.Parser) -> None:
         help="a PX4 SITL binary (build/px4_sitl_default/bin/px4) for the real-PX4 tests "
         "(env MCS_PX4_BINARY)",
     )
+    group.addoption(
+        "--mcs-ray",
+        dest="mcs_ray",
+        default=None,
+        help="run campaigns (mcs_campaign_executor) on the Ray cluster at ADDRESS "
+        "(auto, local, ray://head:10001, ...; default: the local process pool)",
+    )
     parser.addini("mcs_fidelity", "default for --mcs-fidelity", default="low")
     parser.addini("mcs_backend", "default for --mcs-backend", default="process")
     parser.addini("mcs_seed", "default for --mcs-seed", default="0")
@@ -119,6 +127,7 @@ def pytest_addoption(parser: pytest.Parser) -> None:
     parser.addini("mcs_keep_traces", "default for --mcs-keep-traces", default="failed")
     parser.addini("mcs_px4_image", "default for --mcs-px4-image", default="")
     parser.addini("mcs_px4_binary", "default for --mcs-px4-binary", default="")
+    parser.addini("mcs_ray", "default for --mcs-ray", default="")
 
 
 def _value(config: pytest.Config, name: str) -> tuple[str, str]:
@@ -174,7 +183,12 @@ def _settings(config: pytest.Config) -> Settings:
         else:
             base = config.inipath.parent if config.inipath is not None else config.rootpath
         artifacts = base / artifacts
-    return Settings(fidelity, backend, seed, artifacts, keep)
+    ray, source = _value(config, "mcs_ray")
+    if ray and importlib.util.find_spec("ray") is None:
+        raise pytest.UsageError(
+            f"{source}: {ray!r} needs Ray, which is not installed: pip install 'multicosim[ray]'"
+        )
+    return Settings(fidelity, backend, seed, artifacts, keep, ray or None)
 
 
 @pytest.hookimpl(tryfirst=True)
@@ -467,6 +481,25 @@ def mcs_simulator(
 
         inner = ProcessSimulator(seed=mcs_seed)
     return _TrackedSimulator(inner, mcs_simulations)
+
+
+@pytest.fixture(scope="session")
+def mcs_campaign_executor(mcs_settings: Settings) -> Iterator[Any]:
+    """The executor campaigns use: the Ray cluster of ``--mcs-ray``, else the process pool.
+
+    Pass it on: ``run_campaign(simulate, requirement, design, executor=mcs_campaign_executor)``.
+    A Ray connection is made on first use and closed at the end of the session.
+    """
+    from multicosim.campaign import ProcessExecutor, RayExecutor
+
+    if mcs_settings.ray is None:
+        yield ProcessExecutor()
+        return
+    executor = RayExecutor(mcs_settings.ray)
+    try:
+        yield executor
+    finally:
+        executor.shutdown()
 
 
 @pytest.fixture(scope="session")

@@ -1,0 +1,29 @@
+"""psy-taliro samples evaluated through a campaign executor."""
+
+from __future__ import annotations
+
+import campaign_programs as cp
+import pytest
+
+import multicosim.taliro as mtaliro
+from multicosim.campaign import ProcessExecutor
+
+
+def test_taliro_batches_run_in_the_pool_like_in_process() -> None:
+    staliro_optimizers = pytest.importorskip("staliro.optimizers")
+    kwargs = {
+        "static_inputs": dict(cp.RANGES),
+        "iterations": 30,
+        "seed": 2,
+        "optimizer": staliro_optimizers.UniformRandom(),
+    }
+    pooled = mtaliro.falsify(
+        cp.rover_static, cp.REQUIREMENT, executor=ProcessExecutor(workers=2), **kwargs
+    )
+    local = mtaliro.falsify(cp.rover_static, cp.REQUIREMENT, **kwargs)
+    assert pooled.evaluations == local.evaluations == 30
+    costs = [e.cost for run in pooled.runs for e in run.evaluations]
+    assert costs == [e.cost for run in local.runs for e in run.evaluations]
+    assert pooled.falsified
+    assert pooled.sample == local.sample
+    assert pooled.evaluation.robustness == pooled.robustness < 0
