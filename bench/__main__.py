@@ -30,7 +30,17 @@ from _common import RESULTS, ROOT, machine  # noqa: E402
 README = ROOT / "README.md"
 START, END = "<!-- bench:start -->", "<!-- bench:end -->"
 # Run order: the cheap, noise-sensitive ones first.
-BENCHMARKS = ("transport", "trace", "rover", "px4", "docker", "throughput", "scaling", "falsify")
+BENCHMARKS = (
+    "transport",
+    "trace",
+    "rover",
+    "px4",
+    "docker",
+    "throughput",
+    "scaling",
+    "falsify",
+    "campaign",
+)
 
 Row = dict[str, Any]
 
@@ -379,7 +389,39 @@ BUILDERS: dict[str, Callable[[dict[str, dict[str, Any]]], list[Row]]] = {
     "trace": lambda r: trace_rows(r["trace"]),
     "throughput": lambda r: throughput_rows(r["throughput"], r.get("falsify")),
     "scaling": lambda r: scaling_rows(r["scaling"]),
+    "campaign": lambda r: campaign_rows(r["campaign"]),
 }
+
+
+def campaign_rows(data: dict[str, Any]) -> list[Row]:
+    """Campaign throughput: process pool against Ray on the same machine."""
+    n = data["samples"]
+    rows = [
+        row(
+            "campaign",
+            f"{n} rover missions (low), local process pool",
+            f"{data['process']['per_minute']:.0f} simulations/min",
+        )
+    ]
+    if data.get("ray"):
+        rows.append(
+            row(
+                "campaign",
+                f"{n} rover missions (low), Ray on this machine / process pool",
+                f"{data['ray']['per_minute']:.0f} vs {data['process']['per_minute']:.0f} "
+                "simulations/min",
+                ratio=data["ray_vs_process_throughput"],
+            )
+        )
+        rows.append(
+            row(
+                "campaign",
+                "Ray per-task overhead / median simulation",
+                f"{data['ray_task_overhead_ms']:.2f} ms / {data['simulation_ms_median']:.2f} ms",
+                ratio=data["ray_overhead_vs_simulation"],
+            )
+        )
+    return rows
 
 
 def summarize(results: dict[str, dict[str, Any]]) -> list[Row]:
