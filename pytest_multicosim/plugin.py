@@ -225,12 +225,14 @@ def pytest_sessionstart(session: pytest.Session) -> None:
     if killed:
         log.warning("removed %d process group(s) left by killed runs", len(killed))
     if not _nested():
-        _sweep_docker(include_current_process=False)
+        _sweep_docker()
 
 
 def pytest_sessionfinish(session: pytest.Session) -> None:
+    # Only this session's leftovers: under xdist another worker may still be running a test
+    # that looks at what a killed run left.
     if not _nested():
-        _sweep_docker(include_current_process=True)
+        _sweep_docker(only_current_process=True)
 
 
 def _nested() -> bool:
@@ -239,12 +241,12 @@ def _nested() -> bool:
     return os.environ.get("PYTEST_CURRENT_TEST") is not None
 
 
-def _sweep_docker(*, include_current_process: bool) -> None:
+def _sweep_docker(*, only_current_process: bool = False) -> None:
     if importlib.util.find_spec("docker") is None:
         return
     from multicosim.docker import sweep
 
-    report = sweep(include_current_process=include_current_process)
+    report = sweep(only_current_process=only_current_process)
     if report.containers or report.networks:
         log.warning("docker sweep: %s", report.summary())
 

@@ -41,12 +41,16 @@ def engine_available() -> str | None:
     return check()
 
 
-def sweep(*, include_current_process: bool = False) -> SweepReport:
+def sweep(
+    *, include_current_process: bool = False, only_current_process: bool = False
+) -> SweepReport:
     """Remove every container and network labelled by a run whose host process has exited.
 
     ``include_current_process`` also removes what this process created (for the end of a
-    session, when none of its simulations can still be running). Resources created by
-    processes of other hosts sharing the engine are left alone.
+    session, when none of its simulations can still be running); ``only_current_process``
+    removes just that, leaving other hosts' leftovers to the next session start (another
+    test may be looking at them). Resources created by processes of other hosts sharing the
+    engine are left alone.
     """
     reason = engine_available()
     if reason is not None:
@@ -68,9 +72,9 @@ def sweep(*, include_current_process: bool = False) -> SweepReport:
 
     def stale(resource_labels: dict[str, str] | None) -> bool:
         found = resource_labels or {}
-        if include_current_process and found.get(LABEL_SESSION) == mine:
+        if (include_current_process or only_current_process) and found.get(LABEL_SESSION) == mine:
             return True
-        return owner_alive(found.get(LABEL_OWNER, "")) is False
+        return not only_current_process and owner_alive(found.get(LABEL_OWNER, "")) is False
 
     containers: list[str] = []
     for info in api.containers(all=True, filters={"label": LABEL_RUN}):

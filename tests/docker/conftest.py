@@ -77,5 +77,5 @@ def no_docker_leaks(request: pytest.FixtureRequest) -> Iterator[None]:
 
     left = _ours(client(), session=session_id())
     if left != ([], []):
-        sweep(include_current_process=True)
+        sweep(only_current_process=True)
         pytest.fail(f"left behind: containers {left[0]}, networks {left[1]}")

@@ -43,6 +43,9 @@ def test_sweep_removes_what_a_killed_run_left(engine: Any, image: str, ours: Any
         finally:
             host.send_signal(signal.SIGKILL)
     assert ours(run=run_id) == ([f"/{run_id}-world"], [run_id])
+    # The end-of-session sweep removes only its own session's leftovers.
+    assert sweep(only_current_process=True).containers == ()
+    assert ours(run=run_id) == ([f"/{run_id}-world"], [run_id])
 
     # A live simulation of this process must survive the same sweep.
     sim = ContainerSimulator()
@@ -85,9 +88,12 @@ def test_sweep_command(engine: Any) -> None:
 
 def test_components_of_a_killed_host_exit_by_themselves(engine: Any, image: str, ours: Any) -> None:
     # In a container the parent never changes, so the component relies on noticing that the
-    # coordinator's connection dropped; the sweep then only has stopped containers to remove.
+    # coordinator's connection dropped. Another test's sweep may remove the container at any
+    # moment (its host is dead), so the proof is the engine's event history: the container
+    # died without anyone killing it.
     import time
 
+    since = int(time.time()) - 1
     with subprocess.Popen(
         [sys.executable, "-c", HOST_PROGRAM, image], stdout=subprocess.PIPE, text=True
     ) as host:
@@ -97,12 +103,21 @@ def test_components_of_a_killed_host_exit_by_themselves(engine: Any, image: str,
             assert run_id.startswith("mcs-"), f"the host program failed (exit {host.poll()})"
         finally:
             host.send_signal(signal.SIGKILL)
-    container = engine.containers.get(f"{run_id}-world")
+    name = f"{run_id}-world"
+
+    def history() -> list[dict[str, Any]]:
+        events = engine.events(
+            since=since, until=int(time.time()) + 1, filters={"container": name}, decode=True
+        )
+        return [e for e in events if e.get("Type") == "container"]
+
     deadline = time.monotonic() + 20
-    while container.status != "exited" and time.monotonic() < deadline:
-        time.sleep(0.2)
-        container.reload()
-    assert container.status == "exited"
-    assert "host has gone" in container.logs().decode()
+    while not any(e["Action"] == "die" for e in history()) and time.monotonic() < deadline:
+        time.sleep(0.5)
+    actions = [e["Action"] for e in history()]
+    assert "die" in actions, actions
+    assert "kill" not in actions[: actions.index("die")], actions
+    die = next(e for e in history() if e["Action"] == "die")
+    assert die["Actor"]["Attributes"]["exitCode"] == "0"
     sweep()
     assert ours(run=run_id) == ([], [])
