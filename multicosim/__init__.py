@@ -55,6 +55,7 @@ _LAZY = {
     "ProcessNode": "._local",
     "ProcessSimulation": "._local",
     "ProcessSimulator": "._local",
+    "ScenarioSimulation": "._local",
     # The paper's container classes; the Docker SDK loads only when one is used.
     "AttachedComponent": ".docker",
     "ContainerComponent": ".docker",
@@ -106,6 +107,7 @@ __all__ = [
     "RemoteError",
     "Requirement",
     "RequirementViolation",
+    "ScenarioSimulation",
     "Simulation",
     "SimulationStopped",
     "Simulator",
@@ -135,6 +137,7 @@ if TYPE_CHECKING:
         ProcessNode,
         ProcessSimulation,
         ProcessSimulator,
+        ScenarioSimulation,
     )
     from ._runtime import (
         Firmware,

@@ -612,8 +612,7 @@ def pytest_runtest_makereport(
 def _save_logs(view: _TestSimulations, dest: Path) -> dict[str, tuple[Path, str]]:
     saved: dict[str, tuple[Path, str]] = {}
     for sim in view.simulations:
-        # Scenario simulations (rover, PX4) wrap a ProcessSimulation as ``.simulation``.
-        logs = getattr(sim, "logs", None) or getattr(getattr(sim, "simulation", None), "logs", None)
+        logs = getattr(sim, "logs", None)
         if logs is None:
             continue
         try:

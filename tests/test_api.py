@@ -18,6 +18,7 @@ EXPECTED = {
     "FirmwareComponent",
     "Requirement",
     "RequirementViolation",
+    "ScenarioSimulation",
     "CommunicationNode",
     "Component",
     "ConfigurationError",

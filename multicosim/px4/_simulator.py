@@ -38,6 +38,7 @@ from .._local import (
     ProcessComponent,
     ProcessSimulation,
     ProcessSimulator,
+    ScenarioSimulation,
 )
 from .._messages import type_name
 from ._autopilot import Autopilot, AutopilotSpec
@@ -320,13 +321,13 @@ class PX4Component:
         return PX4Node(self.name, gcs, autopilot, self)
 
 
-class PX4Simulation:
+class PX4Simulation(ScenarioSimulation):
     """A running PX4 simulation: ``firmware`` flies missions, ``world`` is the physics node."""
 
     def __init__(
         self, simulation: ProcessSimulation, firmware_id: NodeId[PX4Node], world_id: NodeId[Node]
     ) -> None:
-        self.simulation = simulation
+        super().__init__(simulation)
         self.firmware: PX4Node = simulation.get(firmware_id)
         self.world: Node = simulation.get(world_id)
 
@@ -335,29 +336,6 @@ class PX4Simulation:
         from ._trace import trace_options
 
         return trace_options(self.firmware._component.world)
-
-    @property
-    def time(self) -> float:
-        """Current simulated time (s)."""
-        return self.simulation.time
-
-    def get(self, node_id: NodeId[Any]) -> Any:
-        """The node ``node_id`` names."""
-        return self.simulation.get(node_id)
-
-    def advance(self, duration: float) -> None:
-        """Let the world and autopilot run ``duration`` simulated seconds without a mission."""
-        self.simulation.advance(duration)
-
-    def stop(self) -> None:
-        """Stop every node; idempotent."""
-        self.simulation.stop()
-
-    def __enter__(self) -> PX4Simulation:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.stop()
 
 
 class PX4:

@@ -42,6 +42,7 @@ from .._local import (
     ProcessComponent,
     ProcessSimulation,
     ProcessSimulator,
+    ScenarioSimulation,
     config_json,
 )
 from ..mujoco._config import WorldConfig
@@ -220,7 +221,7 @@ def controller_component(
     )
 
 
-class RoverSimulation:
+class RoverSimulation(ScenarioSimulation):
     """A running rover scenario: ``controller`` takes missions, ``get`` finds other nodes."""
 
     def __init__(
@@ -232,7 +233,7 @@ class RoverSimulation:
         backend: Backend = "process",
         world_config: WorldConfig | None = None,
     ) -> None:
-        self.simulation = simulation
+        super().__init__(simulation)
         self.fidelity = fidelity
         self.backend: Backend = backend
         self.world_config = world_config or default_world(fidelity)
@@ -254,34 +255,6 @@ class RoverSimulation:
     def world(self) -> Node:
         """The world node (a participant in-process, a process or a container)."""
         return self.simulation.get(self._world_id)
-
-    @property
-    def time(self) -> float:
-        """Current simulated time (s)."""
-        return self.simulation.time
-
-    @property
-    def seed(self) -> int:
-        """The simulation's seed."""
-        return self.simulation.seed
-
-    def get(self, node_id: NodeId[NodeT]) -> NodeT:
-        """The node ``node_id`` names (ids come from ``Rover.add``)."""
-        return self.simulation.get(node_id)
-
-    def advance(self, duration: float) -> None:
-        """Run the world for ``duration`` simulated seconds without a mission."""
-        self.simulation.advance(duration)
-
-    def stop(self) -> None:
-        """Stop the controller and the world; idempotent."""
-        self.simulation.stop()
-
-    def __enter__(self) -> RoverSimulation:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.stop()
 
     def __repr__(self) -> str:
         return (
