@@ -56,6 +56,25 @@ def model_path() -> str:
     return str(resources.files("multicosim.px4").joinpath("models/quadrotor.xml"))
 
 
+_ZERO3 = (0.0, 0.0, 0.0)
+_NO_BARO = (0.0, 0.0, 0.0, 0.0)
+
+
+def _hil_sensor(
+    t_us: int,
+    fields: int,
+    motion: tuple[float, ...] = _ZERO3 + _ZERO3,
+    mag: tuple[float, ...] = _ZERO3,
+    baro: tuple[float, ...] = _NO_BARO,
+) -> HilSensor:
+    """A HIL_SENSOR from its parts: accel + gyro, magnetometer, (pressure, diff, alt, temp)."""
+    m, b = motion, baro
+    return HilSensor(
+        t_us, m[0], m[1], m[2], m[3], m[4], m[5], mag[0], mag[1], mag[2], b[0], b[1], b[2], b[3],
+        fields,
+    )  # fmt: skip
+
+
 class WorldSpec(msgspec.Struct, frozen=True, kw_only=True):
     """Everything the world participant needs (JSON-encodable, for a world process)."""
 
@@ -263,102 +282,33 @@ class QuadrotorWorld:
         temp = 15.0 - 0.0065 * alt_msl
         if k:
             acc_s, gyr_s = 0.02 * k, 0.002 * k
-            imu_msg = HilSensor(
-                t_us,
+            motion: tuple[float, ...] = (
                 imu[0] + g(acc_s),
                 imu[1] + g(acc_s),
                 imu[2] + g(acc_s),
                 imu[3] + g(gyr_s),
                 imu[4] + g(gyr_s),
                 imu[5] + g(gyr_s),
-                0.0,
-                0.0,
-                0.0,
-                0.0,
-                0.0,
-                0.0,
-                0.0,
-                IMU_FIELDS,
             )
         else:
-            imu_msg = HilSensor(
-                t_us,
-                imu[0],
-                imu[1],
-                imu[2],
-                imu[3],
-                imu[4],
-                imu[5],
-                0.0,
-                0.0,
-                0.0,
-                0.0,
-                0.0,
-                0.0,
-                0.0,
-                IMU_FIELDS,
-            )
-        if slow and topics.mag == topics.imu == topics.baro:
-            # One combined HIL_SENSOR where the topics coincide, as PX4 SITL receives it.
-            mag_s, baro_alt = 0.003 * k, alt_msl + g(0.1 * k)
-            imu_msg = msgspec.structs.replace(
-                imu_msg,
-                xmag=imu[6] + g(mag_s),
-                ymag=imu[7] + g(mag_s),
-                zmag=imu[8] + g(mag_s),
-                abs_pressure=pressure_hpa(baro_alt),
-                pressure_alt=baro_alt,
-                temperature=temp,
-                fields_updated=IMU_FIELDS | MAG_FIELDS | BARO_FIELDS,
-            )
-            self._emit(ctx, topics.imu, imu_msg)
+            motion = imu[:6]
+        if not slow:
+            self._emit(ctx, topics.imu, _hil_sensor(t_us, IMU_FIELDS, motion=motion))
         else:
-            self._emit(ctx, topics.imu, imu_msg)
-            if slow:
-                mag_s = 0.003 * k
-                self._emit(
-                    ctx,
-                    topics.mag,
-                    HilSensor(
-                        t_us,
-                        0.0,
-                        0.0,
-                        0.0,
-                        0.0,
-                        0.0,
-                        0.0,
-                        imu[6] + g(mag_s),
-                        imu[7] + g(mag_s),
-                        imu[8] + g(mag_s),
-                        0.0,
-                        0.0,
-                        0.0,
-                        0.0,
-                        MAG_FIELDS,
-                    ),
-                )
-                baro_alt = alt_msl + g(0.1 * k)
-                self._emit(
-                    ctx,
-                    topics.baro,
-                    HilSensor(
-                        t_us,
-                        0.0,
-                        0.0,
-                        0.0,
-                        0.0,
-                        0.0,
-                        0.0,
-                        0.0,
-                        0.0,
-                        0.0,
-                        pressure_hpa(baro_alt),
-                        0.0,
-                        baro_alt,
-                        temp,
-                        BARO_FIELDS,
-                    ),
-                )
+            # Drawn in one order whichever topics the readings go to, so that remapping a
+            # sensor (to put an injector in front of it) leaves the noise unchanged.
+            mag_s = 0.003 * k
+            mag = (imu[6] + g(mag_s), imu[7] + g(mag_s), imu[8] + g(mag_s))
+            baro_alt = alt_msl + g(0.1 * k)
+            baro = (pressure_hpa(baro_alt), 0.0, baro_alt, temp)
+            if topics.mag == topics.imu == topics.baro:
+                # One combined HIL_SENSOR where the topics coincide, as PX4 SITL receives it.
+                fields = IMU_FIELDS | MAG_FIELDS | BARO_FIELDS
+                self._emit(ctx, topics.imu, _hil_sensor(t_us, fields, motion, mag, baro))
+            else:
+                self._emit(ctx, topics.imu, _hil_sensor(t_us, IMU_FIELDS, motion=motion))
+                self._emit(ctx, topics.mag, _hil_sensor(t_us, MAG_FIELDS, mag=mag))
+                self._emit(ctx, topics.baro, _hil_sensor(t_us, BARO_FIELDS, baro=baro))
         if n % self._gps_every == 0:
             self._emit(ctx, topics.gps, self._gps(t_us, alt_msl))
         if n % self._truth_every == 0:
