@@ -177,8 +177,8 @@ def geofence_waypoints(
     to home, in metres; default: a tuple), e.g. ``waypoint=px4.Waypoint``. Shrinks towards one
     waypoint above home at the lowest altitude.
     """
+    from .geo import local_to_geodetic
     from .mujoco import DEFAULT_HOME
-    from .mujoco._geo import local_to_geodetic
 
     home = home if home is not None else DEFAULT_HOME
     if (

@@ -104,14 +104,15 @@ def pytest_addoption(parser: pytest.Parser) -> None:
         "--mcs-px4-image",
         dest="mcs_px4_image",
         default=None,
-        help="a PX4 SITL container image for the real-PX4 tests (env MCS_PX4_IMAGE)",
+        help="fly real PX4 too: a PX4 SITL image (multicosim images build --px4-dir DIR; "
+        "env MCS_PX4_IMAGE)",
     )
     group.addoption(
         "--mcs-px4-binary",
         dest="mcs_px4_binary",
         default=None,
-        help="a PX4 SITL binary (build/px4_sitl_default/bin/px4) for the real-PX4 tests "
-        "(env MCS_PX4_BINARY)",
+        help="fly real PX4 too: its SITL binary (bin/px4 with etc/ beside bin/, e.g. "
+        "build/px4_sitl_default/bin/px4; env MCS_PX4_BINARY)",
     )
     group.addoption(
         "--mcs-ray",
@@ -628,4 +629,19 @@ def _save_logs(view: _TestSimulations, dest: Path) -> dict[str, tuple[Path, str]
             except OSError:
                 continue
             saved[name] = (target, tail)
+        # Real PX4's ULog files (binary: copied, not shown), for PX4's Flight Review.
+        flight_logs = getattr(sim, "flight_logs", None)
+        try:
+            ulogs = flight_logs() if flight_logs is not None else []
+        except (OSError, MulticosimError):
+            ulogs = []
+        for path in ulogs:
+            with contextlib.suppress(OSError):
+                dest.mkdir(parents=True, exist_ok=True)
+                target = dest / path.name
+                shutil.copyfile(path, target)
+                saved[f"flight log {path.name}"] = (
+                    target,
+                    "(ULog: open it in PX4's Flight Review)",
+                )
     return saved

@@ -14,9 +14,13 @@ starting it); ``px4_world`` (the world configuration) and ``px4_params`` can be 
 in a module or conftest. With ``--mcs-backend=docker`` the world and the autopilot run as
 containers of the runtime image (rebuilt first if the source changed); where no Docker
 engine runs the test is skipped with the reason (a failure with ``MCS_REQUIRE_DOCKER=1``).
-``px4_real`` says which real PX4 SITL is configured
-(``--mcs-px4-image`` / ``--mcs-px4-binary``, or ``MCS_PX4_IMAGE`` / ``MCS_PX4_BINARY``)
-and skips the test with that reason when none is.
+
+Real PX4 is the top of the fidelity ladder: with ``--mcs-px4-binary`` (a PX4 SITL ``px4``
+binary) or ``--mcs-px4-image`` (an image from ``multicosim images build --px4-dir``), or
+their ini twins and ``MCS_PX4_BINARY`` / ``MCS_PX4_IMAGE``, every test using these
+fixtures also runs on real PX4 at medium and high fidelity (``px4_autopilot`` is then
+parametrized: ``builtin`` and ``sitl``). ``px4_sitl`` gives the configured real PX4 to tests
+that need it and skips them with the reason where none is configured.
 Heavy imports happen inside the fixtures.
 """
 
@@ -28,16 +32,79 @@ from typing import TYPE_CHECKING, Any
 import pytest
 
 if TYPE_CHECKING:
-    from multicosim.px4 import PX4, MuJoCo, PX4Simulation
+    from multicosim.px4 import PX4, SITL, MuJoCo, PX4Simulation
 
 __all__ = [
+    "AUTOPILOTS",
     "RealPX4",
+    "px4_autopilot",
     "px4_params",
-    "px4_real",
     "px4_simulation",
     "px4_simulator",
+    "px4_sitl",
     "px4_world",
+    "real_px4",
 ]
+
+AUTOPILOTS = ("builtin", "sitl")
+
+
+class RealPX4:
+    """Where a real PX4 SITL comes from: a ``px4`` binary, an image, or neither."""
+
+    def __init__(self, image: str | None, binary: str | None) -> None:
+        self.image = image or None
+        self.binary = binary or None
+
+    @property
+    def configured(self) -> bool:
+        """Whether any real PX4 is configured."""
+        return bool(self.image or self.binary)
+
+    def sitl(self, backend: str = "process") -> SITL:
+        """The firmware for ``px4.PX4(firmware=...)`` on ``backend``."""
+        from multicosim.px4 import SITL
+
+        if backend == "docker":
+            return SITL(binary=self.binary, image=self.image)
+        if self.binary is None:
+            pytest.skip(
+                "real PX4 on the process backend needs a binary (--mcs-px4-binary); "
+                "an image (--mcs-px4-image) runs with --mcs-backend=docker"
+            )
+        return SITL(binary=self.binary)
+
+    def __repr__(self) -> str:
+        return f"RealPX4(image={self.image!r}, binary={self.binary!r})"
+
+
+def _option(config: pytest.Config, name: str, env: str) -> str | None:
+    """The option, else its ini twin, else the environment variable ``env``."""
+    value = config.getoption(name) or config.getini(name)
+    return str(value) if value else os.environ.get(env) or None
+
+
+def real_px4(config: pytest.Config) -> RealPX4:
+    """The real PX4 configured for this run (options, ini, environment)."""
+    return RealPX4(
+        _option(config, "mcs_px4_image", "MCS_PX4_IMAGE"),
+        _option(config, "mcs_px4_binary", "MCS_PX4_BINARY"),
+    )
+
+
+def pytest_generate_tests(metafunc: pytest.Metafunc) -> None:
+    # With real PX4 configured, each test on the PX4 fixtures runs on both autopilots.
+    if "px4_simulator" not in metafunc.fixturenames:
+        return
+    if not real_px4(metafunc.config).configured:
+        return
+    metafunc.parametrize("px4_autopilot", AUTOPILOTS, scope="session")
+
+
+@pytest.fixture
+def px4_autopilot(request: pytest.FixtureRequest) -> str:
+    """Which autopilot the PX4 fixtures fly: ``builtin`` or ``sitl`` (real PX4)."""
+    return str(getattr(request, "param", "builtin"))
 
 
 @pytest.fixture
@@ -61,12 +128,21 @@ def px4_simulator(
     mcs_simulations: Any,
     px4_world: MuJoCo | None,
     px4_params: dict[str, float],
+    px4_autopilot: str,
 ) -> PX4:
     """An unstarted PX4 Simulator; whatever it starts is stopped at teardown."""
     from multicosim.px4 import BACKENDS, PX4
 
     if mcs_backend not in BACKENDS:
         pytest.skip(f"the PX4 scenario does not run on the {mcs_backend!r} backend")
+    firmware = None
+    if px4_autopilot == "sitl":
+        if mcs_fidelity == "low":
+            pytest.skip(
+                "real PX4 flies the MuJoCo world (medium, high); low fidelity is the "
+                "built-in autopilot's point mass"
+            )
+        firmware = real_px4(request.config).sitl(mcs_backend)
     if mcs_backend == "docker":
         request.getfixturevalue("mcs_runtime_image")
     simulator = PX4(
@@ -75,6 +151,7 @@ def px4_simulator(
         backend=mcs_backend,
         seed=mcs_seed,
         params=px4_params,
+        firmware=firmware,
     )
     return _Tracked(simulator, mcs_simulations)  # type: ignore[return-value]
 
@@ -106,38 +183,21 @@ def px4_simulation(px4_simulator: PX4) -> PX4Simulation:
     return px4_simulator.start()
 
 
-class RealPX4:
-    """Where a real PX4 SITL comes from: a Docker image or a ``px4`` binary (or neither)."""
-
-    def __init__(self, image: str | None, binary: str | None) -> None:
-        self.image = image or None
-        self.binary = binary or None
-
-    @property
-    def configured(self) -> bool:
-        """Whether any real PX4 is configured."""
-        return bool(self.image or self.binary)
-
-    def __repr__(self) -> str:
-        return f"RealPX4(image={self.image!r}, binary={self.binary!r})"
-
-
-def _option(config: pytest.Config, name: str, env: str) -> str | None:
-    """The option, else its ini twin, else the environment variable ``env``."""
-    value = config.getoption(name) or config.getini(name)
-    return str(value) if value else os.environ.get(env) or None
-
-
 @pytest.fixture
-def px4_real(request: pytest.FixtureRequest) -> RealPX4:
-    """The configured real PX4 SITL; skips the test when none is configured."""
-    real = RealPX4(
-        _option(request.config, "mcs_px4_image", "MCS_PX4_IMAGE"),
-        _option(request.config, "mcs_px4_binary", "MCS_PX4_BINARY"),
-    )
+def px4_sitl(request: pytest.FixtureRequest) -> RealPX4:
+    """The configured real PX4 SITL; skips the test with the reason when none is configured."""
+    real = real_px4(request.config)
     if not real.configured:
         pytest.skip(
-            "no real PX4 SITL configured: give --mcs-px4-image (an image built from "
-            "images/px4/Dockerfile) or --mcs-px4-binary (a PX4 SITL 'px4' binary)"
+            "no real PX4 SITL configured: give --mcs-px4-binary (PX4's SITL bin/px4, with "
+            "etc/ beside bin/) or --mcs-px4-image (multicosim images build --px4-dir DIR)"
         )
     return real
+
+
+def pytest_report_header(config: pytest.Config) -> str | None:
+    real = real_px4(config)
+    if not real.configured:
+        return None
+    source = real.binary or real.image
+    return f"multicosim px4: real PX4 SITL {source} (the PX4 fixtures fly it too)"

@@ -24,7 +24,7 @@ import multicosim.px4 as px4
 import multicosim.strategies as mst
 from multicosim.attacks import strategies as ast
 from multicosim.falsify import falsify
-from multicosim.px4._geo import EARTH_RADIUS, LocalProjection
+from multicosim.geo import EARTH_RADIUS, LocalProjection
 from multicosim.requirements import Requirement
 
 HOME = px4.Home()

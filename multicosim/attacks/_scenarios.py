@@ -84,15 +84,19 @@ def inject(
         )
         in_process = inner.fidelity == "low"
     else:
+        from ..px4._config import world_topics
         from ..px4._simulator import LOW_PERIOD
 
-        source = getattr(inner.world.topics, sensor)
+        source = getattr(world_topics(inner.world), sensor)
         target = f"{source}/attacked"
         if getattr(inner.autopilot_topics, sensor) != source:
             raise ConfigurationError(
                 "sensor", sensor, "a sensor without an injector (combine models in one)"
             )
-        in_process = inner.fidelity == "low" and inner.backend == "process"
+        # Where the world runs: in this process at low fidelity, and as real PX4's simulator.
+        in_process = inner.backend == "process" and (
+            inner.fidelity == "low" or inner.firmware is not None
+        )
         config = InjectorConfig(
             vehicle="px4",
             sensor=sensor,

@@ -18,14 +18,13 @@ from typing import Any, Literal
 import msgspec
 
 from .._errors import ConfigurationError
+from ..geo import LocalProjection
 
 __all__ = ["ALIASES", "SENSORS", "VEHICLES", "Quantity", "Sensor", "Vehicle", "sensor"]
 
 Vehicle = Literal["rover", "px4"]
 VEHICLES: tuple[Vehicle, ...] = ("rover", "px4")
 Wire = Literal["native", "mavlink"]
-
-EARTH_RADIUS = 6_371_000.0  # m, the sphere both scenarios project on
 
 
 @dataclasses.dataclass(frozen=True)
@@ -88,11 +87,9 @@ class Sensor:
 # -- shared geometry ------------------------------------------------------------------------
 
 
-def _degrees(north: float, east: float, latitude: float) -> tuple[float, float]:
-    """Latitude and longitude change (degrees) of a small north/east move at ``latitude``."""
-    dlat = math.degrees(north / EARTH_RADIUS)
-    dlon = math.degrees(east / (EARTH_RADIUS * math.cos(math.radians(latitude))))
-    return dlat, dlon
+def _moved(lat: float, lon: float, north: float, east: float) -> tuple[float, float]:
+    """Latitude and longitude (degrees) of the point ``north``/``east`` metres from lat, lon."""
+    return LocalProjection(lat, lon).reproject(north, east)
 
 
 def _rotate(x: float, y: float, angle: float) -> tuple[float, float]:
@@ -115,14 +112,14 @@ def _shift(values: Sequence[float], delta: Sequence[float]) -> tuple[float, ...]
 
 def _rover_position(msg: Any, quantity: str, d: Sequence[float]) -> Any:
     east, north, up = d
-    dlat, dlon = _degrees(north, east, msg.latitude)
+    lat, lon = _moved(msg.latitude, msg.longitude, north, east)
     return msgspec.structs.replace(
         msg,
         x=msg.x + east,
         y=msg.y + north,
         z=msg.z + up,
-        latitude=msg.latitude + dlat,
-        longitude=msg.longitude + dlon,
+        latitude=lat,
+        longitude=lon,
         altitude=msg.altitude + up,
     )
 
@@ -149,11 +146,11 @@ def _rover_wheel_speed(msg: Any, quantity: str, d: Sequence[float]) -> Any:
 def _px4_gps(msg: Any, quantity: str, d: Sequence[float]) -> Any:
     east, north, up = d
     if quantity == "position":
-        dlat, dlon = _degrees(north, east, msg.lat * 1e-7)
+        lat, lon = _moved(msg.lat * 1e-7, msg.lon * 1e-7, north, east)
         return msgspec.structs.replace(
             msg,
-            lat=msg.lat + round(dlat * 1e7),
-            lon=msg.lon + round(dlon * 1e7),
+            lat=round(lat * 1e7),
+            lon=round(lon * 1e7),
             alt=msg.alt + round(up * 1000),
         )
     # Velocity: the message carries NED cm/s, plus ground speed and course over ground.
@@ -175,7 +172,7 @@ def _px4_mag(msg: Any, quantity: str, d: Sequence[float]) -> Any:
 
 
 def _px4_baro(msg: Any, quantity: str, d: Sequence[float]) -> Any:
-    from ..px4._geo import pressure_hpa
+    from ..geo import pressure_hpa
 
     if not msg.fields_updated & 0x800:  # HIL_SENSOR_UPDATED_PRESSALT
         return msg

@@ -23,6 +23,8 @@ _LAZY = {
     "ImageMissingError": "._engine",
     "BASE_IMAGE": "._images",
     "RUNTIME_IMAGE": "._images",
+    "PX4_IMAGE": "._images",
+    "build_px4": "._images",
     "build_images": "._images",
     "SweepReport": "._sweep",
     "engine_available": "._sweep",
@@ -32,6 +34,7 @@ _RENAMED = {"build_images": "build"}
 
 __all__ = [
     "BASE_IMAGE",
+    "PX4_IMAGE",
     "RUNTIME_IMAGE",
     "AttachedComponent",
     "AttachedNode",
@@ -46,6 +49,7 @@ __all__ = [
     "ImageMissingError",
     "SweepReport",
     "build_images",
+    "build_px4",
     "engine_available",
     "sweep",
 ]
@@ -61,8 +65,10 @@ if TYPE_CHECKING:
     from ._engine import EngineUnavailableError as EngineUnavailableError
     from ._engine import ImageMissingError as ImageMissingError
     from ._images import BASE_IMAGE as BASE_IMAGE
+    from ._images import PX4_IMAGE as PX4_IMAGE
     from ._images import RUNTIME_IMAGE as RUNTIME_IMAGE
     from ._images import build as build_images
+    from ._images import build_px4 as build_px4
     from ._simulator import ContainerSimulation as ContainerSimulation
     from ._simulator import ContainerSimulator as ContainerSimulator
     from ._sweep import SweepReport as SweepReport

@@ -17,6 +17,10 @@ def main(argv: list[str] | None = None) -> int:
     p = sub.add_parser("build", help="build multicosim's images locally (never pulls)")
     p.add_argument("--base", help="base image (default: python:3.11-slim or a Debian base)")
     p.add_argument("--force", action="store_true", help="rebuild even if up to date")
+    p.add_argument(
+        "--px4-dir",
+        help="also build the real-PX4 image from this PX4 SITL directory (bin/px4 and etc/)",
+    )
     sub.add_parser("sweep", help="remove containers and networks of runs whose host is gone")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s", stream=sys.stderr)
@@ -27,6 +31,10 @@ def main(argv: list[str] | None = None) -> int:
         progress = (lambda line: print(line, file=sys.stderr)) if args.verbose else None
         for tag in build(base=args.base, force=args.force, progress=progress):
             print(tag)
+        if args.px4_dir:
+            from ._images import build_px4
+
+            print(build_px4(args.px4_dir, force=args.force, progress=progress))
         return 0
     from ._sweep import sweep
 

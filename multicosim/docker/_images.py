@@ -28,9 +28,11 @@ from ._engine import ImageNotFound, client
 
 __all__ = [
     "BASE_IMAGE",
+    "PX4_IMAGE",
     "RUNTIME_IMAGE",
     "build",
     "build_base",
+    "build_px4",
     "build_runtime",
     "debian_mirror",
 ]
@@ -39,6 +41,9 @@ log = logging.getLogger(__name__)
 
 RUNTIME_IMAGE = f"multicosim/runtime:{__version__}"
 """The image every multicosim component program runs from."""
+
+PX4_IMAGE = f"multicosim/px4-sitl:{__version__}"
+"""The real-PX4 image: the runtime image with a PX4 SITL directory (``build_px4``)."""
 
 BASE_IMAGE = "multicosim/base:bookworm"
 """The base image made from Debian's archive when no Python base image is present."""
@@ -218,40 +223,86 @@ def build_runtime(
 
     Skipped when an image ``tag`` built from the same inputs exists, unless ``force``.
     """
+    with tempfile.TemporaryDirectory(prefix="mcs-build-") as tmp:
+        context = Path(tmp)
+        _prepare_context(context)
+        return _build_context(context, base=base, tag=tag, force=force, progress=progress)
+
+
+def _build_context(
+    context: Path,
+    *,
+    base: str,
+    tag: str,
+    force: bool,
+    progress: Callable[[str], None] | None,
+) -> str:
+    """Build ``context`` on ``base`` as ``tag`` unless an image of the same inputs exists."""
     api = client().api
     if not _image_exists(api, base):
         raise MulticosimError(f"base image {base!r} is not present locally (never pulled)")
     base_id: str = api.inspect_image(base)["Id"]
-    with tempfile.TemporaryDirectory(prefix="mcs-build-") as tmp:
-        context = Path(tmp)
-        _prepare_context(context)
-        digest = _digest(context, base_id)
-        if not force and _image_exists(api, tag):
-            current = (api.inspect_image(tag)["Config"].get("Labels") or {}).get(LABEL_INPUTS)
-            if current == digest:
-                log.info("%s is up to date", tag)
-                return tag
-        log.info("building %s on %s", tag, base)
-        lines: list[str] = []
-        for chunk in api.build(
-            path=str(context),
-            tag=tag,
-            buildargs={"BASE": base},
-            labels={LABEL_INPUTS: digest},
-            pull=False,
-            rm=True,
-            forcerm=True,
-            decode=True,
-        ):
-            if "error" in chunk:
-                tail = "".join(lines[-30:])
-                raise MulticosimError(f"building {tag} failed: {chunk['error']}\n{tail}")
-            text = chunk.get("stream")
-            if text:
-                lines.append(text)
-                if progress is not None:
-                    progress(text.rstrip("\n"))
+    digest = _digest(context, base_id)
+    if not force and _image_exists(api, tag):
+        current = (api.inspect_image(tag)["Config"].get("Labels") or {}).get(LABEL_INPUTS)
+        if current == digest:
+            log.info("%s is up to date", tag)
+            return tag
+    log.info("building %s on %s", tag, base)
+    lines: list[str] = []
+    for chunk in api.build(
+        path=str(context),
+        tag=tag,
+        buildargs={"BASE": base},
+        labels={LABEL_INPUTS: digest},
+        pull=False,
+        rm=True,
+        forcerm=True,
+        decode=True,
+    ):
+        if "error" in chunk:
+            tail = "".join(lines[-30:])
+            raise MulticosimError(f"building {tag} failed: {chunk['error']}\n{tail}")
+        text = chunk.get("stream")
+        if text:
+            lines.append(text)
+            if progress is not None:
+                progress(text.rstrip("\n"))
     return tag
+
+
+def build_px4(
+    px4_dir: str | os.PathLike[str],
+    *,
+    tag: str = PX4_IMAGE,
+    force: bool = False,
+    progress: Callable[[str], None] | None = None,
+) -> str:
+    """Build the real-PX4 image from a PX4 SITL directory (``bin/px4`` and ``etc``); its tag.
+
+    The image is the runtime image (``multicosim px4 launch`` prepares PX4's working
+    directory inside it) with the directory's ``bin`` and ``etc`` copied to /opt/px4; no
+    registry is contacted. Skipped when its inputs did not change, unless ``force``.
+    """
+    root = Path(px4_dir)
+    missing = [p for p in ("bin/px4", "etc/init.d-posix/rcS") if not (root / p).is_file()]
+    if missing:
+        raise MulticosimError(
+            f"{root} is not a PX4 SITL directory: {', '.join(missing)} missing "
+            "(expected a px4_sitl_default build or bundle with bin/px4 and etc/)"
+        )
+    runtime = build(force=False, progress=progress)[0]
+    lock_path = Path(tempfile.gettempdir()) / f"multicosim-{os.getuid()}-build.lock"
+    with open(lock_path, "w") as lock, tempfile.TemporaryDirectory(prefix="mcs-px4-") as tmp:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        context = Path(tmp)
+        shutil.copy(_repo_root() / "images" / "px4" / "Dockerfile", context / "Dockerfile")
+        for part in ("bin", "etc"):
+            shutil.copytree(root / part, context / "px4" / part, symlinks=True)
+        for extra in ("LICENSE", "COPYING.txt"):
+            if (root / extra).is_file():
+                shutil.copy(root / extra, context / "px4" / extra)
+        return _build_context(context, base=runtime, tag=tag, force=force, progress=progress)
 
 
 def build(

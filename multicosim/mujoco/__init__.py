@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
+from ..geo import geodetic_to_local, local_to_geodetic
 from ._config import (
     DEFAULT_HOME,
     DEFAULT_MAGNETIC_FIELD,
@@ -22,7 +23,6 @@ from ._config import (
     Solver,
     WorldConfig,
 )
-from ._geo import geodetic_to_local, local_to_geodetic
 
 __all__ = [
     "DEFAULT_HOME",

@@ -12,6 +12,7 @@ from collections.abc import Mapping
 from typing import Literal
 
 from .._errors import ConfigurationError
+from ..geo import Home
 
 __all__ = [
     "DEFAULT_HOME",
@@ -30,12 +31,12 @@ Solver = Literal["Newton", "CG", "PGS"]
 INTEGRATORS: tuple[Integrator, ...] = ("Euler", "RK4", "implicit", "implicitfast")
 SOLVERS: tuple[Solver, ...] = ("Newton", "CG", "PGS")
 
-# PX4 SITL's default home, so a world and a PX4 autopilot agree on where "here" is.
-DEFAULT_HOME = (47.397742, 8.545594, 488.0)
+DEFAULT_HOME = Home()
 # Earth's field near that home (ENU frame, tesla): about 21.5 uT north, 43 uT down.
 DEFAULT_MAGNETIC_FIELD = (0.0, 2.15e-5, -4.3e-5)
 
 MAX_TIMESTEP = 0.1
+MAX_NOISE = 10.0
 
 
 def _number(field: str, value: object) -> float:
@@ -53,8 +54,9 @@ class WorldConfig:
     world integrates ``period / timestep`` MuJoCo steps in one batch between exchanges.
     ``sensor_topics`` maps a sensor's name to the topic it is published on instead of its
     default one, so that an injector can sit between a sensor and its reader. ``home`` is
-    the (latitude, longitude, altitude) of the local origin; ``magnetic_field`` is Earth's
-    field in the local ENU frame (tesla).
+    the (latitude, longitude, altitude) of the local origin (a :class:`~multicosim.geo.Home`);
+    ``magnetic_field`` is Earth's field in the local ENU frame (tesla). ``noise`` scales the
+    vehicle's sensor-noise model: 0 gives ideal sensors, 1 the vehicle's realistic model.
     """
 
     timestep: float = 0.002
@@ -63,8 +65,9 @@ class WorldConfig:
     iterations: int = 100
     period: float = 0.01
     sensor_topics: dict[str, str] = dataclasses.field(default_factory=dict)
-    home: tuple[float, float, float] = DEFAULT_HOME
+    home: Home = DEFAULT_HOME
     magnetic_field: tuple[float, float, float] = DEFAULT_MAGNETIC_FIELD
+    noise: float = 1.0
 
     def __post_init__(self) -> None:
         timestep = _number("timestep", self.timestep)
@@ -105,8 +108,12 @@ class WorldConfig:
             raise ConfigurationError("magnetic_field", field, "an (east, north, up) vector")
         for v in field:
             _number("magnetic_field", v)
+        noise = _number("noise", self.noise)
+        if not 0.0 <= noise <= MAX_NOISE:
+            raise ConfigurationError("noise", self.noise, f"0 <= noise <= {MAX_NOISE:g}")
         # Decoded from JSON these arrive as lists; keep them tuples so configs compare equal.
-        object.__setattr__(self, "home", tuple(float(v) for v in home))
+        object.__setattr__(self, "home", Home(*(float(v) for v in home)))
+        object.__setattr__(self, "noise", noise)
         object.__setattr__(self, "magnetic_field", tuple(float(v) for v in field))
         object.__setattr__(self, "sensor_topics", dict(self.sensor_topics))
 
@@ -114,6 +121,12 @@ class WorldConfig:
     def steps_per_period(self) -> int:
         """MuJoCo steps integrated between two exchanges (rounded)."""
         return max(1, round(self.period / self.timestep))
+
+    @property
+    def declination(self) -> float:
+        """Magnetic declination of ``magnetic_field`` (rad, east of true north)."""
+        east, north, _ = self.magnetic_field
+        return math.atan2(east, north)
 
     def topic(self, sensor: str, default: str) -> str:
         """The topic ``sensor`` is published on: its remapping, else ``default``."""

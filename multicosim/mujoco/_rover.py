@@ -7,7 +7,7 @@ a process; JSON is a :class:`multicosim.rover.RoverWorldConfig`.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from ..rover._messages import (
     COMMAND_TOPIC,
@@ -20,7 +20,7 @@ from ..rover._messages import (
     WheelSpeed,
 )
 from ..rover._vehicle import WHEEL_RADIUS, RoverWorldConfig, SensorNoise, ackermann
-from ._world import MODELS, Physics, World
+from ._world import MODELS, Physics, World, load_model
 
 if TYPE_CHECKING:
     from .._runtime import StepContext, Subscription
@@ -43,6 +43,10 @@ class RoverVehicle:
         self._command: Subscription[Command] | None = None
         self._topics: Mapping[str, str] = dict(SENSOR_TOPICS)
         self._ctrl: list[int] = []
+
+    def load_model(self) -> Any:
+        """The rover's MJCF model (``models/rover.xml``)."""
+        return load_model(self.model_path)
 
     def setup(self, physics: Physics, ctx: StepContext, topics: Mapping[str, str]) -> None:
         """Find the actuators and subscribe to the command topic."""
@@ -118,4 +122,4 @@ class RoverVehicle:
 def rover_world(config: RoverWorldConfig | None = None) -> World:
     """A MuJoCo world with the rover in it (the participant factory of the rover scenario)."""
     config = config or RoverWorldConfig()
-    return World(config.world, RoverVehicle(config.noise))
+    return World(config.world, RoverVehicle(config.sensor_noise))

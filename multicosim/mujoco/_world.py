@@ -16,8 +16,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
 from .._errors import DependencyMissingError, MulticosimError
+from ..geo import local_to_geodetic
 from ._config import WorldConfig, check_sensor_topics
-from ._geo import local_to_geodetic
 
 if TYPE_CHECKING:
     import numpy as np
@@ -93,11 +93,7 @@ class Physics:
     @classmethod
     def from_xml_path(cls, path: str | os.PathLike[str], config: WorldConfig) -> Physics:
         """Load the MJCF model at ``path``."""
-        try:
-            model = mujoco.MjModel.from_xml_path(os.fspath(path))
-        except ValueError as exc:
-            raise MulticosimError(f"could not load the MJCF model {path}: {exc}") from exc
-        return cls(model, config)
+        return cls(load_model(path), config)
 
     @property
     def time(self) -> float:
@@ -154,6 +150,14 @@ class Physics:
         return local_to_geodetic(self.config.home, east, north, up)
 
 
+def load_model(path: str | os.PathLike[str]) -> Any:
+    """The ``MjModel`` of the MJCF file at ``path``; MulticosimError if it cannot be loaded."""
+    try:
+        return mujoco.MjModel.from_xml_path(os.fspath(path))
+    except ValueError as exc:
+        raise MulticosimError(f"could not load the MJCF model {path}: {exc}") from exc
+
+
 class PhysicsDivergedError(MulticosimError):
     """MuJoCo's integration diverged (NaN or huge accelerations) under this configuration."""
 
@@ -162,13 +166,16 @@ class Vehicle(Protocol):
     """The vehicle half of a world: its MJCF model, its actuators and its sensors.
 
     ``sensors`` maps each sensor name to its default topic; a ``WorldConfig.sensor_topics``
-    entry moves it to another topic. The world calls ``setup`` once, then at every period
-    ``actuate`` (apply the latest commands to ``data.ctrl``), integrates, and ``sense``
-    (publish what the sensors read now).
+    entry moves it to another topic. The world calls ``load_model`` and ``setup`` once, then
+    at every period ``actuate`` (apply the latest commands to ``data.ctrl``), integrates, and
+    ``sense`` (publish what the sensors read now).
     """
 
-    model_path: Path
     sensors: Mapping[str, str]
+
+    def load_model(self) -> Any:
+        """The vehicle's ``MjModel``."""
+        ...
 
     def setup(self, physics: Physics, ctx: StepContext, topics: Mapping[str, str]) -> None:
         """Subscribe to command topics; ``topics`` maps sensor names to their topics."""
@@ -206,9 +213,8 @@ class World:
 
     def setup(self, ctx: StepContext) -> None:
         """Load the model and let the vehicle subscribe to its commands."""
-        self.physics = Physics.from_xml_path(self.vehicle.model_path, self.config)
+        self.physics = Physics(self.vehicle.load_model(), self.config)
         self.vehicle.setup(self.physics, ctx, self.topics)
-        log.debug("%s: loaded %s", ctx.name, self.vehicle.model_path)
 
     def step(self, ctx: StepContext) -> None:
         """Apply commands, integrate up to ``ctx.time``, publish sensors."""

@@ -44,6 +44,7 @@ _LAZY = {
     "PX4Component": "._simulator",
     "PX4Node": "._simulator",
     "PX4Simulation": "._simulator",
+    "SITL": "._real",
     "WorldComponent": "._simulator",
 }
 
@@ -52,6 +53,7 @@ __all__ = [
     "FIDELITIES",
     "HIGH_FIDELITY_WORLD",
     "PX4",
+    "SITL",
     "Backend",
     "Configuration",
     "Fidelity",
@@ -71,6 +73,7 @@ __all__ = [
 ]
 
 if TYPE_CHECKING:
+    from ._real import SITL
     from ._simulator import (
         BACKENDS,
         FIDELITIES,

@@ -1,10 +1,12 @@
-"""``python -m multicosim.px4 sitl``: our PX4-compatible SITL on PX4's UDP ports.
+"""``multicosim px4 sitl``: a PX4 SITL on our MuJoCo world, on PX4's usual UDP ports.
 
-    python -m multicosim.px4 sitl                       # real time, 14550 (GCS), 14540 (API)
-    python -m multicosim.px4 sitl --speed 5 --fidelity medium
+    multicosim px4 sitl                                  # built-in autopilot, real time
+    multicosim px4 sitl --speed 5 --fidelity medium
+    multicosim px4 sitl --px4-binary ../shared/px4-sitl/bin/px4 --speed 10   # real PX4
 
-QGroundControl, MAVProxy (``--master udpin:127.0.0.1:14550``) or MAVSDK
-(``udpin://0.0.0.0:14540``) connect and fly it as they would PX4 SITL. Ctrl-C stops it.
+QGroundControl (UDP 14550), MAVProxy (``--master udpin:127.0.0.1:14550``) or MAVSDK
+(``udpin://0.0.0.0:14540``) connect and fly it as they would PX4 SITL with Gazebo.
+Ctrl-C or SIGTERM stops it and everything it started.
 """
 
 from __future__ import annotations
@@ -43,8 +45,24 @@ def main(argv: list[str] | None = None) -> int:
     )
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--duration", type=float, default=None, help="stop after this many sim s")
+    p.add_argument(
+        "--px4-binary",
+        default=None,
+        help="fly real PX4: its SITL binary (bin/px4, with etc/ beside bin/); PX4 keeps its "
+        "own MAVLink ports (14550 GCS, 14540+instance API)",
+    )
     p.add_argument("-v", "--verbose", action="store_true")
+    launch = sub.add_parser(
+        "launch", help="(in the PX4 image) prepare PX4's working directory and start PX4"
+    )
+    launch.add_argument("--instance", type=int, default=0)
+    launch.add_argument("--sim-host", required=True, help="address of the simulator bridge")
+    launch.add_argument("--link", required=True, help="HOST:PORT of the ground-station link")
+    launch.add_argument("--model", default="none_iris")
+    launch.add_argument("--params", default="{}", help="PX4 parameters as a JSON object")
     args = parser.parse_args(argv)
+    if args.command == "launch":
+        return _launch(parser, args)
     logging.basicConfig(
         level=logging.DEBUG if args.verbose else logging.INFO,
         format="%(asctime)s %(name)s %(levelname)s %(message)s",
@@ -52,6 +70,11 @@ def main(argv: list[str] | None = None) -> int:
     )
     if not args.speed > 0:
         parser.error("--speed must be positive")
+    stop = threading.Event()
+    # SIGTERM ends the run as cleanly as Ctrl-C does.
+    signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    if args.px4_binary:
+        return _real(parser, args, stop)
     from ._sitl import Link, run_sitl
 
     links = []
@@ -61,9 +84,6 @@ def main(argv: list[str] | None = None) -> int:
         links.append(Link(args.api_port, 0, args.host))
     if not links:
         parser.error("at least one of --gcs-port and --api-port is needed")
-    stop = threading.Event()
-    # SIGTERM ends the run as cleanly as Ctrl-C does.
-    signal.signal(signal.SIGTERM, lambda *_: stop.set())
 
     def ready(ports: list[int]) -> None:
         print(f"multicosim px4 sitl ready: local ports {ports}", flush=True)
@@ -79,6 +99,54 @@ def main(argv: list[str] | None = None) -> int:
             on_ready=ready,
         )
     return 0
+
+
+def _real(parser: argparse.ArgumentParser, args: argparse.Namespace, stop: threading.Event) -> int:
+    from .._errors import ConfigurationError
+    from ._real import API_LOCAL_PORT, SITL
+    from ._sitl import run_real_sitl
+
+    try:
+        sitl = SITL(binary=args.px4_binary)
+    except ConfigurationError as exc:
+        parser.error(str(exc))
+
+    def ready(instance: int) -> None:
+        api = API_LOCAL_PORT - 40 + instance
+        print(
+            f"real PX4 SITL instance {instance} is flying the MuJoCo world: "
+            f"QGroundControl on UDP 14550, MAVSDK on udpin://0.0.0.0:{api}",
+            flush=True,
+        )
+
+    with contextlib.suppress(KeyboardInterrupt):
+        run_real_sitl(
+            sitl,
+            speed=args.speed,
+            seed=args.seed,
+            duration=args.duration,
+            stop=stop,
+            on_ready=ready,
+        )
+    return 0
+
+
+def _launch(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
+    import json
+
+    from ._real import exec_in_container
+
+    host, _, port = args.link.rpartition(":")
+    if not host or not port.isdigit():
+        parser.error(f"--link {args.link!r}: expected HOST:PORT")
+    exec_in_container(
+        instance=args.instance,
+        sim_host=args.sim_host,
+        link=(host, int(port)),
+        params=json.loads(args.params),
+        model=args.model,
+    )
+    return 0  # not reached: the process became PX4
 
 
 if __name__ == "__main__":

@@ -21,10 +21,10 @@ import msgspec
 
 from .._errors import ConfigurationError
 from .._runtime import StepContext, Subscription
+from ..geo import LocalProjection
 from ._config import Topics
 from ._control import MultirotorController, position_control
 from ._estimator import Estimator
-from ._geo import LocalProjection
 from ._hil import (
     ACTUATOR_FLAG_VELOCITY,
     ARMED_FLAG,
@@ -78,7 +78,7 @@ CONTROL_BITS = 1024 | 2048 | 4096 | 8192 | 16384 | 32768  # rate..xy control, mo
 AHRS_BIT, PREARM_BIT = 0x200000, 0x10000000
 CAPABILITIES = 1 | 2 | 4 | 8 | 256 | 8192  # mission float/int, param float, cmd int, ftp-less
 
-FLIGHT_SW_VERSION = (1 << 24) | (15 << 16) | (0 << 8) | 255  # "v1.15.0 official"
+FLIGHT_SW_VERSION = (1 << 24) | (15 << 16) | (4 << 8) | 255  # "v1.15.4 official", as PX4's
 NAV_COMMANDS = {CMD_WAYPOINT, CMD_LOITER_UNLIM, CMD_RTL, CMD_LAND, CMD_TAKEOFF}
 STREAM_DEFAULTS = {  # message: period (s); None for "at the telemetry rate"
     "HEARTBEAT": 1.0,
@@ -106,6 +106,7 @@ class AutopilotSpec(msgspec.Struct, frozen=True, kw_only=True):
     telemetry_rate: float = 20.0
     params: dict[str, float] = msgspec.field(default_factory=dict)
     system_id: int = 1
+    mag_declination: float = 0.0  # rad, the world's (PX4 looks it up in its field model)
 
     def __post_init__(self) -> None:
         if self.airframe not in ("quadrotor", "point_mass"):
@@ -143,7 +144,7 @@ class Autopilot:
         self.spec = spec = spec or AutopilotSpec()
         self.period = spec.period
         self.params = Params(spec.params)
-        self.est = Estimator()
+        self.est = Estimator(spec.mag_declination)
         self.ctl = MultirotorController()
         self.velocity_vehicle = spec.airframe == "point_mass"
         self._d: Any = dialect()
@@ -901,6 +902,8 @@ class Autopilot:
                 FRAME_GLOBAL_REL,
                 FRAME_GLOBAL_INT,
                 FRAME_GLOBAL_REL_INT,
+                # PX4 takes a return-to-launch item (no position) in the mission frame.
+                *((FRAME_MISSION,) if it.command == CMD_RTL else ()),
             ):
                 return MISSION_UNSUPPORTED_FRAME, f"item {it.seq}: frame {it.frame} unsupported"
             if it.command in (CMD_WAYPOINT, CMD_LOITER_UNLIM, CMD_LAND) and (

@@ -13,7 +13,8 @@ from typing import Literal
 import msgspec
 
 from .._errors import ConfigurationError
-from ._geo import LocalProjection
+from ..geo import Home, LocalProjection
+from ..mujoco._config import WorldConfig, check_sensor_topics
 
 __all__ = [
     "Configuration",
@@ -25,10 +26,9 @@ __all__ = [
     "Topics",
     "Waypoint",
     "WaypointReached",
+    "world_topics",
 ]
 
-Integrator = Literal["Euler", "RK4", "implicit", "implicitfast"]
-Solver = Literal["PGS", "CG", "Newton"]
 MissionEnd = Literal["land", "rtl", "hold"]
 
 
@@ -46,29 +46,14 @@ def check_number(
     return v
 
 
-class Home(msgspec.Struct, frozen=True):
-    """Where the vehicle starts (WGS84 degrees, metres above mean sea level).
-
-    The default is PX4 SITL's home (``PX4_HOME_LAT/LON/ALT``), Zurich.
-    """
-
-    lat: float = 47.397742
-    lon: float = 8.545594
-    alt: float = 488.0
-
-    def __post_init__(self) -> None:
-        check_number("home.lat", self.lat, -89.0, 89.0)
-        check_number("home.lon", self.lon, -180.0, 180.0)
-        check_number("home.alt", self.alt, -500.0, 9000.0)
-
-
 class Topics(msgspec.Struct, frozen=True):
     """Topic names of the simulator interface; remap them to insert injectors or bridges.
 
-    The world publishes ``imu``, ``mag``, ``baro``, ``gps`` and ``truth`` and reads
-    ``actuators``; the autopilot reads the four sensor topics and publishes ``actuators``.
-    Giving the world and the autopilot different names lets a component sit in between
-    (for example a GPS attack reading ``px4/gps`` and publishing ``px4/gps/attacked``).
+    The world publishes ``imu``, ``mag``, ``baro``, ``gps`` and ``truth`` (these defaults,
+    moved by ``WorldConfig.sensor_topics``) and reads ``actuators``; the autopilot reads the
+    four sensor topics and publishes ``actuators``. Giving the world and the autopilot
+    different names lets a component sit in between (for example a GPS attack reading
+    ``px4/gps`` and publishing ``px4/gps/attacked``).
     """
 
     imu: str = "px4/imu"
@@ -85,60 +70,22 @@ class Topics(msgspec.Struct, frozen=True):
                 raise ConfigurationError(f"topics.{field}", value, "a non-empty topic name")
 
 
-class MuJoCo(msgspec.Struct, frozen=True, kw_only=True):
-    """The physics world of the PX4 scenario (the paper's ``px4.Gazebo()``).
+SENSORS = ("imu", "mag", "baro", "gps", "truth")
+"""The quadrotor world's sensors (``WorldConfig.sensor_topics`` keys)."""
 
-    ``timestep`` is MuJoCo's integration step, ``integrator``/``solver``/``iterations`` its
-    solver options; the world publishes sensors every ``period`` (a multiple of the timestep:
-    the lockstep rate, which is also the autopilot's control rate; 0 picks the multiple of
-    the timestep nearest to 10 ms, i.e. 100 Hz at the default timestep).
-    ``noise`` scales the sensor noise of the medium-fidelity models (0 gives ideal sensors);
-    ``home`` places the vehicle; ``topics`` remaps sensor topics.
-    """
 
-    timestep: float = 0.002
-    integrator: Integrator = "implicitfast"
-    solver: Solver = "Newton"
-    iterations: int = 50
-    period: float = 0.0
-    noise: float = 1.0
-    home: Home = msgspec.field(default_factory=Home)
-    topics: Topics = msgspec.field(default_factory=Topics)
+def world_topics(world: WorldConfig) -> Topics:
+    """The topics a quadrotor world configured by ``world`` publishes on and reads."""
+    check_sensor_topics(world, dict.fromkeys(SENSORS, ""))
+    if not world.sensor_topics:
+        return _DEFAULT_TOPICS
+    return Topics(**{**msgspec.structs.asdict(_DEFAULT_TOPICS), **world.sensor_topics})
 
-    def __post_init__(self) -> None:
-        check_number("timestep", self.timestep, 0.0001, 0.02)
-        if self.integrator not in ("Euler", "RK4", "implicit", "implicitfast"):
-            raise ConfigurationError(
-                "integrator", self.integrator, "'Euler', 'RK4', 'implicit' or 'implicitfast'"
-            )
-        if self.solver not in ("PGS", "CG", "Newton"):
-            raise ConfigurationError("solver", self.solver, "'PGS', 'CG' or 'Newton'")
-        if (
-            isinstance(self.iterations, bool)
-            or not isinstance(self.iterations, int)
-            or not (1 <= self.iterations <= 1000)
-        ):
-            raise ConfigurationError("iterations", self.iterations, "an integer in [1, 1000]")
-        if self.period == 0.0:
-            # Any timestep (a search may sample it) gets a lockstep period near 10 ms.
-            substeps = max(1, round(0.01 / self.timestep))
-            msgspec.structs.force_setattr(self, "period", round(self.timestep * substeps, 9))
-        check_number("period", self.period, 0.0001, 0.02)
-        ratio = self.period / self.timestep
-        if ratio < 1.0 - 1e-9 or abs(ratio - round(ratio)) > 1e-6:
-            raise ConfigurationError(
-                "period", self.period, f"a whole multiple of timestep={self.timestep:g}"
-            )
-        check_number("noise", self.noise, 0.0, 10.0)
-        if not isinstance(self.home, Home):
-            raise ConfigurationError("home", self.home, "a px4.Home")
-        if not isinstance(self.topics, Topics):
-            raise ConfigurationError("topics", self.topics, "a px4.Topics")
 
-    @property
-    def substeps(self) -> int:
-        """MuJoCo steps per world period."""
-        return max(1, round(self.period / self.timestep))
+_DEFAULT_TOPICS = Topics()
+
+MuJoCo = WorldConfig
+"""The PX4 scenario's world configuration (the paper's ``px4.Gazebo()``): MuJoCo's."""
 
 
 class Geofence(msgspec.Struct, frozen=True):
@@ -259,7 +206,8 @@ class MissionResult(msgspec.Struct, frozen=True, kw_only=True):
 
     ``completed`` says whether the mission ran to its configured end (landed and disarmed,
     or holding at the last waypoint); ``reason`` says why not. ``messages`` holds the
-    autopilot's STATUSTEXT messages.
+    autopilot's STATUSTEXT messages; ``firmware_version`` the flight software version it
+    reported (AUTOPILOT_VERSION, e.g. ``"1.15.4"``).
     """
 
     trajectory: list[Sample]
@@ -271,6 +219,7 @@ class MissionResult(msgspec.Struct, frozen=True, kw_only=True):
     landed: bool
     armed: bool
     messages: list[str] = msgspec.field(default_factory=list)
+    firmware_version: str = ""
 
     @property
     def duration(self) -> float:

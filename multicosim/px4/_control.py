@@ -3,12 +3,16 @@
 The position stage runs for every vehicle. The point-mass vehicle of the low-fidelity world
 takes the velocity setpoint directly (its first-order velocity response stands in for the
 inner loops); the MuJoCo quadrotor gets the whole cascade down to four motor outputs.
-Gains are tuned for the packaged X-quadrotor (1.5 kg, 0.25 m arms, 8 N per rotor).
+Gains are tuned for PX4's none_iris airframe (1.5 kg, :mod:`._airframe`).
 """
 
 from __future__ import annotations
 
 import math
+
+import numpy as np
+
+from ._airframe import NONE_IRIS, Airframe
 
 __all__ = ["MultirotorController", "Vehicle", "position_control"]
 
@@ -16,15 +20,30 @@ GRAVITY = 9.80665
 
 
 class Vehicle:
-    """Physical parameters the mixer and thrust model need (the MJCF's values)."""
+    """What the mixer and thrust model need, derived from the airframe the world simulates.
 
-    mass = 1.5
-    inertia = (0.029, 0.029, 0.055)
-    arm = 0.1768  # x and y offset of each rotor (m)
-    max_thrust = 8.0  # per rotor (N)
-    yaw_moment = 0.016  # reaction torque per newton of thrust (m)
-    # PX4 quad-x: (x, y) in FRD and spin (+1: CCW, whose reaction yaws the body clockwise).
-    rotors = ((1, 1, 1), (-1, -1, 1), (1, -1, -1), (-1, 1, -1))
+    The allocation is PX4's: the effectiveness matrix (collective thrust and FRD torques per
+    rotor thrust) inverted once, so any quad layout (the Iris's is not square) mixes exactly.
+    """
+
+    def __init__(self, airframe: Airframe = NONE_IRIS) -> None:
+        self.mass = airframe.mass
+        self.inertia = airframe.inertia
+        self.max_thrust = airframe.max_thrust
+        # Rows: thrust, roll, pitch, yaw per newton of each rotor (FRD, thrust along -z).
+        effectiveness = np.array(
+            [
+                [1.0] * len(airframe.rotors),
+                [-r.y for r in airframe.rotors],
+                [r.x for r in airframe.rotors],
+                [r.km for r in airframe.rotors],
+            ]
+        )
+        alloc = np.linalg.pinv(effectiveness)
+        # Per rotor: newtons per N of thrust, per N m of roll, pitch and yaw torque.
+        self.alloc: list[tuple[float, float, float, float]] = [
+            (float(a[0]), float(a[1]), float(a[2]), float(a[3])) for a in alloc
+        ]
 
 
 def _clamp(v: float, lo: float, hi: float) -> float:
@@ -147,22 +166,25 @@ class MultirotorController:
         """
         v = self.v
         mt = v.max_thrust
-        base = _clamp(thrust / 4.0, 0.0, mt)
-        k = v.arm / (4.0 * v.arm * v.arm)
-        rp = [(-sy * tx + sx * ty) * k for sx, sy, _ in v.rotors]
-        room = min(base, mt - base)
-        spread = max(abs(x) for x in rp)
-        if spread > room:
-            scale = room / spread if spread > 0 else 0.0
-            rp = [x * scale for x in rp]
-        yaw = tz / (4.0 * v.yaw_moment)
-        limit = math.inf
-        for (_, _, spin), x in zip(v.rotors, rp, strict=True):
-            f = base + x
-            # Headroom of this rotor in the direction yaw pushes it.
-            limit = min(limit, mt - f if spin * yaw > 0 else f)
-        yaw = _clamp(yaw, -max(limit, 0.0), max(limit, 0.0))
+        alloc = v.alloc
+        base = [a[0] * thrust for a in alloc]
+        rp = [a[1] * tx + a[2] * ty for a in alloc]
+        scale = 1.0
+        for b, x in zip(base, rp, strict=True):
+            b = _clamp(b, 0.0, mt)
+            room = min(b, mt - b)
+            if abs(x) * scale > room:
+                scale = room / abs(x) if x else scale
+        base = [_clamp(b, 0.0, mt) for b in base]
+        rp = [x * scale for x in rp]
+        yaw = [a[3] * tz for a in alloc]
+        # The largest fraction of the yaw torque every rotor has headroom for.
+        k = 1.0
+        for b, x, y in zip(base, rp, yaw, strict=True):
+            f = b + x
+            room = mt - f if y > 0 else f
+            if abs(y) > max(room, 0.0):
+                k = min(k, max(room, 0.0) / abs(y))
         return [
-            _clamp((base + x + spin * yaw) / mt, 0.0, 1.0)
-            for (_, _, spin), x in zip(v.rotors, rp, strict=True)
+            _clamp((b + x + k * y) / mt, 0.0, 1.0) for b, x, y in zip(base, rp, yaw, strict=True)
         ]

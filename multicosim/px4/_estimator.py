@@ -14,12 +14,11 @@ from __future__ import annotations
 
 import math
 
-from ._geo import LocalProjection
+from ..geo import LocalProjection
 
 __all__ = ["Estimator"]
 
 GRAVITY = 9.80665
-MAG_DECLINATION = math.atan2(0.015, 0.21)  # the world's field; PX4 looks it up by position
 
 # Complementary-filter gains (per update at the stated rate).
 K_GPS_POS = 0.25  # 10 Hz
@@ -39,7 +38,9 @@ def _wrap(a: float) -> float:
 class Estimator:
     """Attitude, local position/velocity (NED from the origin), WGS84 position, health."""
 
-    def __init__(self) -> None:
+    def __init__(self, declination: float = 0.0) -> None:
+        # Magnetic declination (rad, east of north) where it flies; PX4 looks it up by position.
+        self.declination = declination
         self.q = [1.0, 0.0, 0.0, 0.0]  # w, x, y, z
         self.pos = [0.0, 0.0, 0.0]
         self.vel = [0.0, 0.0, 0.0]
@@ -208,7 +209,7 @@ class Estimator:
         me = r[3] * m[0] + r[4] * m[1] + r[5] * m[2]
         if mn * mn + me * me < 1e-6:
             return
-        err = _wrap(math.atan2(me, mn) - MAG_DECLINATION)
+        err = _wrap(math.atan2(me, mn) - self.declination)
         if not self.attitude_ok:
             roll, pitch, yaw = self.euler()
             self._set_euler(roll, pitch, _wrap(yaw - err))

@@ -21,9 +21,10 @@ from ._mav import decode_frames, mode_label, new_link
 __all__ = ["GcsSpec", "GroundStation", "ground_station"]
 
 MAV_TYPE_GCS, MAV_AUTOPILOT_INVALID = 6, 8
-FRAME_GLOBAL_REL_INT = 6
+FRAME_MISSION, FRAME_GLOBAL_REL_INT = 2, 6
 CMD_WAYPOINT, CMD_RTL, CMD_LAND, CMD_TAKEOFF = 16, 20, 21, 22
-CMD_MISSION_START, CMD_ARM_DISARM = 300, 400
+CMD_MISSION_START, CMD_ARM_DISARM, CMD_REQUEST_MESSAGE = 300, 400, 512
+MSG_AUTOPILOT_VERSION = 148
 PREARM_BIT = 0x10000000
 LANDED_ON_GROUND = 1
 SEV_CRITICAL = 2
@@ -37,6 +38,7 @@ class GcsSpec(msgspec.Struct, frozen=True, kw_only=True):
     truth: str = "px4/truth"
     period: float = 0.05
     preflight_timeout: float = 30.0
+    command_timeout: float = 1.0
     system_id: int = 255
     component_id: int = 190
 
@@ -71,6 +73,7 @@ class GroundStation:
         self.reached: list[tuple[int, float]] = []
         self.samples: list[Sample] = []
         self.recording = False
+        self.version = ""
         self._next_heartbeat = 0.0
 
     # -- link -------------------------------------------------------------------------------
@@ -135,6 +138,9 @@ class GroundStation:
             self.mission_ack = m
         elif kind in ("MISSION_REQUEST_INT", "MISSION_REQUEST"):
             self.requested.append(m.seq)
+        elif kind == "AUTOPILOT_VERSION":
+            v = m.flight_sw_version
+            self.version = f"{v >> 24 & 0xFF}.{v >> 16 & 0xFF}.{v >> 8 & 0xFF}"
         elif kind == "PARAM_VALUE":
             name = m.param_id if isinstance(m.param_id, str) else m.param_id.decode()
             self.params[name.split("\0", 1)[0]] = m.param_value
@@ -178,8 +184,9 @@ class GroundStation:
 
     # -- protocols --------------------------------------------------------------------------
 
-    def command(self, command: int, *params: float, timeout: float = 1.0, tries: int = 3) -> int:
+    def command(self, command: int, *params: float, tries: int = 3) -> int:
         """COMMAND_LONG with retransmission; the COMMAND_ACK result (-1: no answer)."""
+        timeout = self.spec.command_timeout
         p = [*params, *([0.0] * (7 - len(params)))]
         for attempt in range(tries):
             self.acks.pop(command, None)
@@ -188,8 +195,9 @@ class GroundStation:
                 return self.acks[command]
         return -1
 
-    def set_param(self, name: str, value: float, timeout: float = 1.0) -> bool:
+    def set_param(self, name: str, value: float) -> bool:
         """PARAM_SET, confirmed by the PARAM_VALUE echo."""
+        timeout = self.spec.command_timeout
         for _ in range(3):
             self.params.pop(name, None)
             self.send(self.mav.param_set_encode(*self.target, name.encode(), value, 9))
@@ -235,8 +243,9 @@ class GroundStation:
                 0,
                 0,
                 math.nan,
-                0,
-                0,
+                # Where it stands: PX4 checks the first item's distance from home.
+                round(home_lat * 1e7),
+                round(home_lon * 1e7),
                 takeoff,
                 0,
             )
@@ -288,7 +297,7 @@ class GroundStation:
                     t_sys,
                     t_comp,
                     len(items),
-                    FRAME_GLOBAL_REL_INT,
+                    FRAME_MISSION,  # no position: PX4 refuses RTL in a global frame
                     CMD_RTL,
                     0,
                     1,
@@ -330,6 +339,7 @@ class GroundStation:
             landed=self.landed_state == LANDED_ON_GROUND,
             armed=self.armed,
             messages=list(self.texts),
+            firmware_version=self.version,
         )
 
     def _why(self, default: str) -> str:
@@ -340,6 +350,8 @@ class GroundStation:
         self.recording = True
         if not self.wait(lambda: self.heartbeat is not None, min(10.0, config.time_limit)):
             raise MissionFailed("no HEARTBEAT from the autopilot")
+        # Which firmware flies (for the result); no answer is no failure.
+        self.command(CMD_REQUEST_MESSAGE, MSG_AUTOPILOT_VERSION, tries=1)
         ready = self.wait(
             lambda: (
                 self.sys_status is not None
@@ -370,12 +382,14 @@ class GroundStation:
         result = self.command(CMD_ARM_DISARM, 1.0)
         if result != 0:
             raise MissionFailed("arming refused: " + self._why(f"COMMAND_ACK result {result}"))
+        # The armed state is the HEARTBEAT's: one sent before the ACK may still be the last
+        # one seen, so wait for a heartbeat that says armed.
+        if not self.wait(lambda: self.armed, 3.0):
+            raise MissionFailed(self._why("arming was acknowledged but the vehicle is not armed"))
         result = self.command(CMD_MISSION_START, 0.0, 0.0)
         if result != 0:
             raise MissionFailed("mission start refused: " + self._why(f"result {result}"))
-        last_seq = len(items) - 1
         last_wp_seq = len(config.mission)
-        was_armed = True
         while True:
             if self.ctx.time >= deadline:
                 raise MissionFailed(
@@ -384,15 +398,18 @@ class GroundStation:
                     f"{len(config.mission)} waypoints reached)"
                 )
             self.step()
-            done_items = any(seq == last_seq for seq, _ in self.reached)
-            if config.end == "hold":
-                if any(seq == last_wp_seq for seq, _ in self.reached):
-                    return True
-            elif done_items and not self.armed and self.landed_state == LANDED_ON_GROUND:
+            # Items are flown in order: the last waypoint reached means all were. (What
+            # follows it, land or return, is a mode of its own: PX4 reports no item reached
+            # for a return-to-launch.)
+            waypoints_done = any(seq == last_wp_seq for seq, _ in self.reached)
+            if config.end == "hold" and waypoints_done:
                 return True
-            if was_armed and not self.armed:
+            if not self.armed:
+                # Disarmed: the end of the flight. The landed state may lag the heartbeat.
+                self.wait(lambda: self.landed_state == LANDED_ON_GROUND, 2.0)
+                if waypoints_done and self.landed_state == LANDED_ON_GROUND:
+                    return True
                 raise MissionFailed(self._why("disarmed before the mission completed"))
-            was_armed = self.armed
 
 
 def ground_station(

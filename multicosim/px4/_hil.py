@@ -101,7 +101,8 @@ class MavlinkPacket(msgspec.Struct, frozen=True, array_like=True, gc=False):
 
 
 class Truth(msgspec.Struct, frozen=True, array_like=True, gc=False):
-    """The world's ground truth: local NED position (m) from home, velocity, WGS84 position."""
+    """The world's ground truth: local NED position (m) from home, velocity, WGS84 position,
+    attitude (unit quaternion w, x, y, z rotating FRD body axes into NED) and body rates."""
 
     time: float
     north: float
@@ -113,6 +114,13 @@ class Truth(msgspec.Struct, frozen=True, array_like=True, gc=False):
     lat: float
     lon: float
     alt: float  # above home
+    qw: float = 1.0
+    qx: float = 0.0
+    qy: float = 0.0
+    qz: float = 0.0
+    rollspeed: float = 0.0
+    pitchspeed: float = 0.0
+    yawspeed: float = 0.0
 
 
 HilMessage = HilSensor | HilGps | HilActuatorControls

@@ -1,292 +1,528 @@
-"""The real-PX4 path: PX4 SITL (a binary or an image) on our world and ground station.
+"""Real PX4 SITL as the firmware of the PX4 scenario: the top of the fidelity ladder.
 
-PX4 SITL's simulator interface (``simulator_mavlink``) connects as a TCP client to the
-simulator on port 4560, receives HIL_SENSOR / HIL_GPS and answers each sensor step with
-HIL_ACTUATOR_CONTROLS; with lockstep its clock follows the sensors' timestamps.
-:class:`HilTcpBridge` is that simulator end for our world: a participant that serves TCP,
-forwards the world's sensor topics as MAVLink frames and waits, in lockstep, for PX4's
-actuator outputs, which it publishes on the world's actuator topic. PX4's ground-station
-side (UDP, it sends to 14540) is carried by :class:`~multicosim.px4._sitl.UdpBridge`, so the
-same :mod:`._gcs` ground station drives real PX4 and our autopilot alike.
+PX4's SITL build (``px4_sitl_default``) flies our MuJoCo quadrotor the way it flies Gazebo's:
+its ``simulator_mavlink`` module connects to :class:`~._hilserver.HilTcpBridge` (TCP
+4560 + instance, lockstep), and its MAVLink API link is carried to the same ground station
+that drives our built-in autopilot (:mod:`._gcs`), so ``simulation.firmware.send`` flies a
+mission on either.
 
-Verified here: the bridge's lockstep protocol against a MAVLink peer over real TCP
-(``tests/px4/test_real.py``). Not verifiable here (no PX4 SITL can be obtained on our
-machines): the PX4 binary/image launch itself; those tests skip with that reason.
+Where PX4 comes from is a :class:`SITL`: a ``px4`` binary with its ``etc`` ROMFS beside it
+(``../shared/px4-sitl`` or a ``build/px4_sitl_default`` tree) run as a local process, or an
+image (``multicosim images build --px4-dir DIR``) run as a container on the simulation's
+network. Each PX4 gets:
+
+* its own instance number (claimed by binding its simulator port; the other ports checked
+  free), so parallel runs (``pytest -n 2``) never share ports, lock files or sockets;
+* a fresh working directory in the run directory (PX4 keeps parameters there);
+* a private ``bin`` directory first on its PATH with the ``px4-<module>`` command links its
+  start-up script calls (so a bundle whose links were flattened into files still runs), and
+  the ``px4-rc.params`` / ``px4-rc.mavlink`` hooks that PX4's start-up script sources from
+  the PATH: our parameters, and one MAVLink link to our ground station instead of PX4's
+  defaults (nothing is sent to other programs' ports).
 """
 
 from __future__ import annotations
 
 import contextlib
 import dataclasses
+import errno
+import fcntl
+import json
 import logging
+import math
 import os
-import shlex
+import re
 import socket
 import time
-from typing import Any
+from collections.abc import Mapping
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
-from .._errors import ConfigurationError, NodeTimeoutError
+from .._errors import ConfigurationError, NodeStartError
 from .._interfaces import Node
-from .._local import (
-    InProcessFirmwareComponent,
-    LocalEnvironment,
-    ParticipantComponent,
-    ProcessComponent,
-    ProcessSimulator,
-)
-from .._runtime import StepContext, Subscription
-from ._config import MuJoCo, Topics
-from ._gcs import GcsSpec, ground_station
-from ._hil import (
-    HilActuatorControls,
-    HilGps,
-    HilSensor,
-    MavlinkPacket,
-    Wire,
-    from_mavlink,
-    pack,
-)
-from ._mav import new_link
-from ._simulator import PX4Node, WorldComponent
-from ._sitl import Link, UdpBridge
+from ._config import Topics
+from ._hil import Wire
+from ._hilserver import SIM_PORT, HilTcpBridge
 
-__all__ = ["HilTcpBridge", "RealPX4Component", "real_px4_simulator"]
+if TYPE_CHECKING:
+    from .._local import LocalEnvironment
+
+__all__ = [
+    "API_LOCAL_PORT",
+    "SITL",
+    "claim_instance",
+    "launch_command",
+    "prepare_rootfs",
+]
 
 log = logging.getLogger(__name__)
 
-SIM_PORT = 4560
+API_LOCAL_PORT = 14580
+"""PX4 binds its API (offboard) link here, plus the instance number."""
+GCS_LOCAL_PORT = 18570
+"""PX4 binds its ground-station link here, plus the instance number."""
+MAX_INSTANCE = 99
+CONTAINER_BUNDLE = "/opt/px4"
+CONTAINER_ROOTFS = "/px4"
+SENSOR_RATE = 250.0  # Hz: what PX4 SITL expects of its simulator (IMU_INTEG_RATE 250)
+
+_PARAM_NAME = re.compile(r"^[A-Z][A-Z0-9_]{0,15}$")
 
 
-class HilTcpBridge:
-    """A participant serving PX4's simulator interface over TCP, in lockstep."""
-
-    def __init__(
-        self,
-        topics: Topics | None = None,
-        *,
-        period: float = 0.004,
-        host: str = "127.0.0.1",
-        port: int = SIM_PORT,
-        lockstep_timeout: float = 5.0,
-        wire: Wire = "mavlink",
-    ) -> None:
-        self.period = period
-        self.wire = wire
-        self.topics = topics or Topics()
-        self.lockstep_timeout = lockstep_timeout
-        self._server = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-        self._server.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        self._server.bind((host, port))
-        self._server.listen(1)
-        self._server.setblocking(False)
-        self._conn: socket.socket | None = None
-        self._mav: Any = new_link(0, 0)
-        self._subs: list[Subscription[Any]] = []
-        self.steps = 0
-        self.replies = 0
-
-    @property
-    def port(self) -> int:
-        """The TCP port PX4 should connect to."""
-        return int(self._server.getsockname()[1])
-
-    @property
-    def connected(self) -> bool:
-        """Whether a PX4 is connected."""
-        return self._conn is not None
-
-    def setup(self, ctx: StepContext) -> None:
-        """Subscribe to the world's sensor topics (either wire)."""
-        t = self.topics
-        for topic in dict.fromkeys((t.imu, t.mag, t.baro, t.gps)):
-            tp: type[Any] = MavlinkPacket
-            if self.wire == "native":
-                tp = HilGps if topic == t.gps else HilSensor
-            self._subs.append(ctx.subscribe(topic, tp))
-
-    def _accept(self) -> None:
-        try:
-            conn, peer = self._server.accept()
-        except (BlockingIOError, InterruptedError):
-            return
-        conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-        conn.settimeout(self.lockstep_timeout)
-        self._conn = conn
-        log.info("PX4 connected from %s", peer)
-
-    def step(self, ctx: StepContext) -> None:
-        """Send this step's sensors to PX4, wait for its actuator outputs, publish them."""
-        if self._conn is None:
-            self._accept()
-            if self._conn is None:
-                return
-        frames = b"".join(
-            (p if isinstance(p, MavlinkPacket) else pack(p)).data
-            for sub in self._subs
-            for p in sub.messages
-        )
-        if not frames:
-            return
-        self.steps += 1
-        try:
-            self._conn.sendall(frames)
-            controls = self._await_controls()
-        except OSError as exc:
-            log.warning("PX4 link lost: %s", exc)
-            with contextlib.suppress(OSError):
-                self._conn.close()
-            self._conn = None
-            return
-        self.replies += 1
-        ctx.publish(self.topics.actuators, pack(controls) if self.wire == "mavlink" else controls)
-
-    def _await_controls(self) -> HilActuatorControls:
-        conn = self._conn
-        assert conn is not None
-        deadline = time.monotonic() + self.lockstep_timeout
-        while time.monotonic() < deadline:
-            data = conn.recv(65536)
-            if not data:
-                raise ConnectionResetError("PX4 closed the simulator connection")
-            for m in self._mav.parse_buffer(data) or ():
-                hil = from_mavlink(m)
-                if isinstance(hil, HilActuatorControls):
-                    return hil
-        raise NodeTimeoutError(
-            "px4", f"sent no HIL_ACTUATOR_CONTROLS within {self.lockstep_timeout:g} s (lockstep)"
-        )
-
-    def close(self) -> None:
-        """Close the sockets."""
-        if self._conn is not None:
-            self._conn.close()
-            self._conn = None
-        self._server.close()
+def _bundle_of(binary: Path) -> Path:
+    # bin/px4 in a bundle or in build/px4_sitl_default: the ROMFS is ../etc.
+    return binary.parent.parent
 
 
-@dataclasses.dataclass(frozen=True)
-class RealPX4Component:
-    """PX4 SITL from a binary or an image, with the bridges and our ground station.
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class SITL:
+    """Real PX4 SITL as the firmware: ``px4.PX4(world, fidelity="medium", firmware=SITL(...))``.
 
-    ``binary``: path of PX4's ``px4`` (run as ``px4 -d ROOTFS`` with ``PX4_SIM_MODEL``);
-    ``image``: an image built from ``images/px4/Dockerfile`` (run with host networking).
+    ``binary`` is PX4's ``px4`` executable (a ``px4_sitl_default`` build, lockstep); ``etc``
+    its ROMFS (default: ``etc`` beside the binary's ``bin`` directory). ``image`` is a PX4
+    SITL image built by ``multicosim images build --px4-dir DIR``, for ``backend="docker"``;
+    with only a binary, the docker backend builds that image from the binary's bundle.
+    ``model`` picks the airframe as ``PX4_SIM_MODEL`` does (``none_iris``: the generic quad
+    our world simulates). ``params`` are set at boot (``param set`` in ``px4-rc.params``).
+    ``start_timeout`` bounds (in wall seconds) PX4's start until it connects to its
+    simulator; ``lockstep_timeout`` a lockstep step once it runs.
     """
 
     binary: str | None = None
     image: str | None = None
-    rootfs: str | None = None
+    etc: str | None = None
     model: str = "none_iris"
-    world: MuJoCo = dataclasses.field(default_factory=MuJoCo)
-    name: str = "px4"
-    sim_port: int = SIM_PORT
-    api_port: int = 14540
+    params: Mapping[str, float] = dataclasses.field(default_factory=dict)
+    start_timeout: float = 60.0
+    lockstep_timeout: float = 30.0
 
     def __post_init__(self) -> None:
-        if bool(self.binary) == bool(self.image):
-            raise ConfigurationError("binary", self.binary, "exactly one of binary= or image=")
+        if self.binary is None and self.image is None:
+            raise ConfigurationError(
+                "firmware", self, "px4.SITL(binary=PATH) or px4.SITL(image=NAME)"
+            )
+        if self.binary is not None:
+            self._check_binary()
+        if self.image is not None and (
+            not isinstance(self.image, str) or not self.image.strip() or " " in self.image
+        ):
+            raise ConfigurationError("image", self.image, "a local image name such as 'name:tag'")
+        if not isinstance(self.model, str) or not re.fullmatch(r"[A-Za-z0-9_]+", self.model):
+            raise ConfigurationError("model", self.model, "an airframe name such as 'none_iris'")
+        if self.binary is not None and not self.airframes():
+            raise ConfigurationError(
+                "model",
+                self.model,
+                f"an airframe of {self.etc_dir / 'init.d-posix' / 'airframes'} "
+                "(a file named <id>_<model>)",
+            )
+        if not isinstance(self.params, Mapping):
+            raise ConfigurationError("params", self.params, "a mapping of PX4 name to number")
+        for name, value in self.params.items():
+            if not isinstance(name, str) or not _PARAM_NAME.match(name):
+                raise ConfigurationError(
+                    "params", name, "PX4 parameter names (upper case, at most 16 characters)"
+                )
+            if (
+                isinstance(value, bool)
+                or not isinstance(value, int | float)
+                or not math.isfinite(value)
+            ):
+                raise ConfigurationError(f"params[{name!r}]", value, "a finite number")
+        for field in ("start_timeout", "lockstep_timeout"):
+            value = getattr(self, field)
+            if isinstance(value, bool) or not isinstance(value, int | float) or not value > 0:
+                raise ConfigurationError(field, value, "a positive number of seconds")
 
-    def command(self) -> list[str]:
-        """The command that starts PX4 SITL."""
-        if self.image:
-            return [
-                "docker",
-                "run",
-                "--rm",
-                "--init",
-                "--network",
-                "host",
-                "-e",
-                f"PX4_SIM_MODEL={self.model}",
-                self.image,
-            ]
+    def _check_binary(self) -> None:
+        binary = self.binary
+        if not isinstance(binary, str | os.PathLike) or not str(binary):
+            raise ConfigurationError("binary", binary, "the path of PX4's px4 executable")
+        path = Path(binary)
+        if not path.is_file():
+            raise ConfigurationError("binary", binary, "an existing file (PX4's bin/px4)")
+        if not os.access(path, os.X_OK):
+            raise ConfigurationError("binary", binary, "an executable file (chmod +x)")
+        rcs = self.etc_dir / "init.d-posix" / "rcS"
+        if not rcs.is_file():
+            raise ConfigurationError(
+                "etc",
+                str(self.etc_dir),
+                "PX4's ROMFS directory with init.d-posix/rcS (etc= names it; by default the "
+                "etc directory beside the binary's bin directory)",
+            )
+
+    @property
+    def binary_path(self) -> Path:
+        """The PX4 executable, resolved."""
         assert self.binary is not None
-        rootfs = self.rootfs or os.path.join(os.path.dirname(self.binary), "..", "etc")
-        return [self.binary, "-d", rootfs]
+        return Path(self.binary).resolve()
 
-    def start(self, environment: LocalEnvironment) -> PX4Node:
-        """Start the bridges, PX4 and the ground station (stopped in reverse order)."""
-        topics = self.world.topics
-        sim_port = self.sim_port
-        uplink, downlink = f"{self.name}/mavlink/up", f"{self.name}/mavlink/down"
-        started: list[tuple[str, Node]] = []
-        try:
-            started.append(
-                (
-                    f"{self.name}.hil",
-                    ParticipantComponent(
-                        lambda: HilTcpBridge(topics, period=self.world.period, port=sim_port),
-                        f"{self.name}.hil",
-                    ).start(environment),
-                )
-            )
-            started.append(
-                (
-                    f"{self.name}.udp",
-                    ParticipantComponent(
-                        lambda: UdpBridge(
-                            [Link(self.api_port + 40, self.api_port)], uplink, downlink, 0.01
-                        ),
-                        f"{self.name}.udp",
-                    ).start(environment),
-                )
-            )
-            env = {"PX4_SIM_MODEL": self.model, "PX4_SIM_HOSTNAME": "127.0.0.1"}
-            started.append(
-                (
-                    self.name,
-                    ProcessComponent(
-                        shlex.join(self.command()), name=self.name, env=env, ready="started"
-                    ).start(environment),
-                )
-            )
-            gcs = InProcessFirmwareComponent(
-                ground_station(
-                    GcsSpec(
-                        uplink=uplink,
-                        downlink=downlink,
-                        truth=topics.truth,
-                        preflight_timeout=120.0,
-                    ),
-                    f"{self.name}.gcs",
-                ),
-                name=f"{self.name}.gcs",
-            ).start(environment)
-        except BaseException:
-            _NodeGroup(started).stop()
-            raise
-        from ._simulator import PX4Component
+    @property
+    def bundle(self) -> Path:
+        """The directory holding ``bin/px4`` and ``etc`` (what a PX4 image is built from)."""
+        return _bundle_of(self.binary_path)
 
-        return PX4Node(
-            self.name, gcs, _NodeGroup(started), PX4Component(self.world, "medium", name=self.name)
+    @property
+    def etc_dir(self) -> Path:
+        """PX4's ROMFS directory."""
+        if self.etc is not None:
+            return Path(self.etc).resolve()
+        return _bundle_of(Path(str(self.binary)).resolve()) / "etc"
+
+    def airframes(self) -> list[Path]:
+        """The airframe files of ``model`` in the ROMFS (one expected)."""
+        folder = self.etc_dir / "init.d-posix" / "airframes"
+        return sorted(p for p in folder.glob(f"*_{self.model}") if p.name.split("_")[0].isdigit())
+
+    def modules(self) -> list[str]:
+        """The ``px4-<module>`` commands beside the binary (links or flattened files)."""
+        return sorted(
+            p.name
+            for p in self.binary_path.parent.glob("px4-*")
+            if p.name != "px4-alias.sh" and "." not in p.name
         )
 
 
-class _NodeGroup:
-    """Several nodes stopped as one, in reverse start order."""
+# -- instances ------------------------------------------------------------------------------
 
-    def __init__(self, nodes: list[tuple[str, Node]]) -> None:
-        self._nodes = nodes
+
+def _lock_held(instance: int) -> bool:
+    # PX4 holds an flock on /tmp/px4_lock-N while instance N runs (a stale file is free).
+    path = Path("/tmp") / f"px4_lock-{instance}"
+    if not path.exists():
+        return False
+    try:
+        with open(path, "rb") as f:
+            fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            fcntl.flock(f, fcntl.LOCK_UN)
+    except OSError as exc:
+        return exc.errno in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES)
+    return False
+
+
+def _udp_free(host: str, port: int) -> bool:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        try:
+            s.bind((host, port))
+        except OSError:
+            return False
+    return True
+
+
+def claim_instance(host: str = "127.0.0.1", *, gcs_link: bool = False) -> tuple[int, socket.socket]:
+    """A free PX4 instance number and its simulator port, bound and listening (the claim).
+
+    Binding ``SIM_PORT + N`` is atomic, so two runs never claim the same instance; PX4's
+    own UDP ports and lock file for ``N`` are checked free as well.
+    """
+    for n in range(MAX_INSTANCE + 1):
+        if _lock_held(n):
+            continue
+        if not _udp_free("127.0.0.1", API_LOCAL_PORT + n):
+            continue
+        if gcs_link and not _udp_free("127.0.0.1", GCS_LOCAL_PORT + n):
+            continue
+        sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        try:
+            sock.bind((host, SIM_PORT + n))
+            sock.listen(4)
+        except OSError:
+            sock.close()
+            continue
+        return n, sock
+    raise NodeStartError(
+        "px4",
+        f"no free PX4 instance: TCP ports {SIM_PORT}..{SIM_PORT + MAX_INSTANCE} "
+        "(or PX4's UDP ports and lock files for them) are all in use",
+    )
+
+
+# -- the working directory ------------------------------------------------------------------
+
+
+def _param_value(value: float) -> str:
+    return str(int(value)) if float(value).is_integer() and abs(value) < 2**31 else repr(value)
+
+
+def prepare_rootfs(
+    sitl: SITL,
+    rootfs: Path,
+    *,
+    instance: int,
+    params: Mapping[str, float],
+    link: tuple[str, int] | None,
+) -> dict[str, str]:
+    """Make PX4's working directory ``rootfs``; return the environment to start PX4 with.
+
+    ``link`` is where PX4's one MAVLink link sends (our ground station's host and port);
+    None keeps PX4's own links (standalone SITL: QGroundControl and MAVSDK on their usual
+    ports).
+    """
+    rootfs.mkdir(parents=True, exist_ok=True)
+    bindir = rootfs / "bin"
+    bindir.mkdir(exist_ok=True)
+    binary = sitl.binary_path
+    for name in sitl.modules():
+        with contextlib.suppress(FileExistsError):
+            (bindir / name).symlink_to(binary)
+    alias = binary.parent / "px4-alias.sh"
+    if alias.is_file():
+        with contextlib.suppress(FileExistsError):
+            (bindir / "px4-alias.sh").symlink_to(alias)
+    lines = ["#!/bin/sh", "# multicosim: parameters for this run"]
+    lines += [f"param set {name} {_param_value(value)}" for name, value in params.items()]
+    (bindir / "px4-rc.params").write_text("\n".join(lines) + "\n")
+    if link is not None:
+        host, port = link
+        (bindir / "px4-rc.mavlink").write_text(
+            "#!/bin/sh\n# multicosim: one API link, to the simulation's ground station\n"
+            f"mavlink start -x -u {API_LOCAL_PORT + instance} -r 4000000 -f -m onboard "
+            f"-o {port} -t {host}\n"
+        )
+    return {
+        "PX4_SIM_MODEL": sitl.model,
+        "PATH": f"{bindir}:{os.environ.get('PATH', '/usr/bin:/bin')}",
+    }
+
+
+def launch_command(sitl: SITL, rootfs: Path, instance: int) -> list[str]:
+    """The command that starts PX4 (daemon mode, instance ``instance``, in ``rootfs``)."""
+    return [str(sitl.binary_path), "-d", "-i", str(instance), "-w", str(rootfs), str(sitl.etc_dir)]
+
+
+def exec_in_container(
+    *, instance: int, sim_host: str, link: tuple[str, int], params: Mapping[str, float], model: str
+) -> None:
+    """Prepare PX4's working directory in its container and become PX4 (never returns).
+
+    The entry point of the PX4 image (``multicosim px4 launch``).
+    """
+    sitl = SITL(binary=f"{CONTAINER_BUNDLE}/bin/px4", model=model)
+    rootfs = Path(CONTAINER_ROOTFS)
+    env = prepare_rootfs(sitl, rootfs, instance=instance, params=params, link=link)
+    env["PX4_SIM_HOST_ADDR"] = sim_host
+    args = launch_command(sitl, rootfs, instance)
+    os.chdir(rootfs)
+    os.execve(args[0], args, {**os.environ, **env})
+
+
+def container_command(
+    *, instance: int, sim_host: str, link: tuple[str, int], params: Mapping[str, float], model: str
+) -> list[str]:
+    """The PX4 image's command for ``exec_in_container``'s arguments."""
+    return [
+        "multicosim",
+        "px4",
+        "launch",
+        "--instance",
+        str(instance),
+        "--sim-host",
+        sim_host,
+        "--link",
+        f"{link[0]}:{link[1]}",
+        "--model",
+        model,
+        "--params",
+        json.dumps(dict(params)),
+    ]
+
+
+# -- starting it ----------------------------------------------------------------------------
+
+
+def wait_connected(bridge: HilTcpBridge, process: Any, name: str, timeout: float) -> None:
+    """Wait until PX4 connects to ``bridge``; NodeStartError with its output if it does not."""
+    deadline = time.monotonic() + timeout
+    while not bridge.poll_connection():
+        code = process.poll()
+        if code is not None:
+            raise NodeStartError(
+                name,
+                "exited before it connected to its simulator",
+                exit_code=code,
+                log_tail=process.log_tail(),
+            )
+        if time.monotonic() > deadline:
+            raise NodeStartError(
+                name,
+                f"did not connect to its simulator (port {bridge.port}) within {timeout:g} s",
+                log_tail=process.log_tail(),
+            )
+        time.sleep(0.02)
+
+
+class SitlNodes:
+    """PX4's process or container with its bridges: stopped as one, in reverse start order."""
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+        self.nodes: list[tuple[str, Node]] = []
+        self.process: Any = None
+        self.rootfs: Path | None = None
+        self.instance = 0
+
+    def add(self, name: str, node: Node) -> None:
+        """Track ``node`` (stopped before those added earlier)."""
+        self.nodes.append((name, node))
+
+    def flight_logs(self, into: Path) -> list[Path]:
+        """PX4's ULog files (``log/**/*.ulg``), copied out of a container into ``into``."""
+        container = getattr(self.process, "container", None)
+        if container is not None:
+            return _copy_out(container, f"{CONTAINER_ROOTFS}/log", into)
+        if self.rootfs is None:
+            return []
+        return sorted((self.rootfs / "log").glob("**/*.ulg"))
 
     def stop(self) -> None:
+        """Stop every node; raise what failed, together."""
         from .._simulation import stop_all
 
-        nodes, self._nodes = self._nodes, []
-        stop_all([(name, node.stop) for name, node in reversed(nodes)], "the real-PX4 nodes")
+        nodes, self.nodes = self.nodes, []
+        stop_all([(name, node.stop) for name, node in reversed(nodes)], f"component {self.name!r}")
 
 
-def real_px4_simulator(
+def _copy_out(container: Any, path: str, into: Path) -> list[Path]:
+    import io
+    import tarfile
+
+    try:
+        stream, _ = container.get_archive(path)
+    except Exception:  # no log directory yet, or the container is gone
+        return []
+    data = io.BytesIO(b"".join(stream))
+    into.mkdir(parents=True, exist_ok=True)
+    with tarfile.open(fileobj=data) as tar:
+        members = [m for m in tar.getmembers() if m.isfile() and m.name.endswith(".ulg")]
+        tar.extractall(into, members=members, filter="data")
+    return sorted(into.glob("**/*.ulg"))
+
+
+def start_sitl(
+    sitl: SITL,
+    environment: LocalEnvironment,
     *,
-    binary: str | None = None,
-    image: str | None = None,
-    world: MuJoCo | None = None,
-    seed: int = 0,
-) -> tuple[ProcessSimulator, Any]:
-    """A simulator with our MuJoCo world (MAVLink wire) and a real PX4 SITL, in real time.
+    name: str,
+    topics: Topics,
+    period: float,
+    wire: Wire,
+    uplink: str | None,
+    downlink: str,
+    params: Mapping[str, float],
+) -> SitlNodes:
+    """Start PX4 (a process, or a container in a ContainerSimulator) with its bridges.
 
-    Returns the simulator and the PX4 node id (``simulation.get(id).send(Configuration)``).
+    With an ``uplink``, PX4's one MAVLink link is carried on ``uplink``/``downlink`` (for
+    the simulation's ground station); without, PX4 keeps its own links on its usual ports
+    (standalone SITL). Returns once PX4 has connected to its simulator bridge; PX4 then
+    waits, in lockstep, for the simulation's clock. Every part started is stopped again if
+    a later one fails.
     """
-    world = world or MuJoCo()
-    sim = ProcessSimulator(seed=seed, realtime=1.0)
-    sim.add(WorldComponent(world, "medium", process=True))
-    node_id = sim.add(RealPX4Component(binary=binary, image=image, world=world))
-    return sim, node_id
+    from .._local import ParticipantComponent, ProcessComponent
+    from ._sitl import Link, UdpBridge
+
+    group = SitlNodes(name)
+    container = _is_container_environment(environment)
+    try:
+        if container:
+            # Each simulation has a network of its own: PX4 is instance 0 in its container
+            # and reaches the bridge on the network's gateway, where nothing else listens.
+            host = environment.gateway  # type: ignore[attr-defined]
+            instance, server = 0, _listen(host, SIM_PORT)
+        else:
+            host = "127.0.0.1"
+            instance, server = claim_instance(host, gcs_link=uplink is None)
+        bridge_node = ParticipantComponent(
+            lambda: HilTcpBridge(
+                topics,
+                period=period,
+                server=server,
+                lockstep_timeout=sitl.lockstep_timeout,
+                wire=wire,
+                name=name,
+            ),
+            f"{name}.hil",
+        ).start(environment)
+        group.add(f"{name}.hil", bridge_node)
+        bridge = bridge_node.participant
+        link: tuple[str, int] | None = None
+        if uplink is not None:
+            up = uplink
+            # The bridge carries a ground station's UDP traffic to an autopilot's topics; here
+            # PX4 is on the UDP side, so what it sends goes down to our ground station.
+            link_node = ParticipantComponent(
+                lambda: UdpBridge([Link(API_LOCAL_PORT + instance, 0, host)], downlink, up, 0.01),
+                f"{name}.link",
+            ).start(environment)
+            group.add(f"{name}.link", link_node)
+            link = (host, link_node.participant.local_ports[0])
+        process: Any
+        if container:
+            process = _start_container(
+                sitl, environment, name=name, instance=instance, link=link, params=params
+            )
+        else:
+            rootfs = environment.run_dir / f"{name}-rootfs"
+            env = prepare_rootfs(sitl, rootfs, instance=instance, params=params, link=link)
+            group.rootfs = rootfs
+            process = ProcessComponent(
+                launch_command(sitl, rootfs, instance),
+                name=name,
+                env=env,
+                cwd=str(rootfs),
+                ready="started",
+                stop_timeout=10.0,
+            ).start(environment)
+        group.add(name, process)
+        group.process = process
+        group.instance = instance
+        bridge.watch = process
+        wait_connected(bridge, process, name, sitl.start_timeout)
+        log.info("%s: PX4 instance %d connected to its simulator", name, instance)
+    except BaseException as exc:
+        try:
+            group.stop()
+        except Exception as cleanup:  # the start error says what matters; keep this beside it
+            exc.add_note(f"while stopping what had started: {cleanup!r}")
+        raise
+    return group
+
+
+def _is_container_environment(environment: Any) -> bool:
+    docker = __import__("sys").modules.get("multicosim.docker._components")
+    return docker is not None and isinstance(environment, docker.ContainerEnvironment)
+
+
+def _listen(host: str, port: int) -> socket.socket:
+    sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    try:
+        sock.bind((host, port))
+        sock.listen(4)
+    except OSError as exc:
+        sock.close()
+        raise NodeStartError("px4", f"could not listen on {host}:{port} for PX4: {exc}") from exc
+    return sock
+
+
+def _start_container(
+    sitl: SITL,
+    environment: Any,
+    *,
+    name: str,
+    instance: int,
+    link: tuple[str, int] | None,
+    params: Mapping[str, float],
+) -> Any:
+    from ..docker import ContainerComponent
+
+    assert sitl.image is not None
+    if link is None:
+        raise ConfigurationError("uplink", None, "a MAVLink topic for PX4 in a container")
+    command = container_command(
+        instance=instance, sim_host=environment.gateway, link=link, params=params, model=sitl.model
+    )
+    return ContainerComponent(
+        sitl.image, command, name=name, ready="started", stop_timeout=10.0
+    ).start(environment)

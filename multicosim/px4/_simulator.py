@@ -23,7 +23,9 @@ same fidelity.
 from __future__ import annotations
 
 import dataclasses
+import math
 import sys
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal, cast
 
 import msgspec
@@ -42,10 +44,11 @@ from .._local import (
 )
 from .._messages import type_name
 from ._autopilot import Autopilot, AutopilotSpec
-from ._config import Configuration, Geofence, MissionResult, MuJoCo, Topics
+from ._config import Configuration, Geofence, MissionResult, MuJoCo, Topics, world_topics
 from ._gcs import GcsSpec, ground_station
 from ._hil import Wire
-from ._world import QuadrotorWorld, WorldSpec
+from ._real import SENSOR_RATE, SITL, start_sitl
+from ._world import WorldSpec, world
 
 if TYPE_CHECKING:
     from ..docker import ContainerEnvironment, ContainerNode, ContainerSimulator
@@ -78,6 +81,12 @@ HIGH_FIDELITY_WORLD = MuJoCo(timestep=0.0005, iterations=100)
 def default_world(fidelity: Fidelity) -> MuJoCo:
     """The world configuration a fidelity level uses unless one is given."""
     return HIGH_FIDELITY_WORLD if fidelity == "high" else MuJoCo()
+
+
+def sitl_period(world: MuJoCo) -> float:
+    """The world period real PX4 gets its sensors at: the timestep multiple nearest 250 Hz."""
+    steps = max(1, round(1.0 / SENSOR_RATE / world.timestep))
+    return round(world.timestep * steps, 9)
 
 
 def _check_fidelity(fidelity: object) -> None:
@@ -167,7 +176,7 @@ class WorldComponent:
         """Start the world in this process, as a process or as a container."""
         spec = self.spec
         if self.image is None and _in_process(self.fidelity, self.process):
-            return ParticipantComponent(lambda: QuadrotorWorld(spec), self.name).start(environment)
+            return ParticipantComponent(lambda: world(spec), self.name).start(environment)
         return _start_participant(
             environment, self.name, "multicosim.px4._world:world", spec, self.image
         )
@@ -205,8 +214,10 @@ class PX4Node:
         # Also how a ContainerSimulation finds it, to signal it at stop with the others.
         # Without the docker backend loaded there is no container (and no SDK to import).
         components = sys.modules.get("multicosim.docker._components")
-        if components is not None and isinstance(self._autopilot, components.ContainerNode):
-            return cast("ContainerNode", self._autopilot)
+        # Real PX4's nodes keep its process or container as ``process``.
+        node = getattr(self._autopilot, "process", self._autopilot)
+        if components is not None and isinstance(node, components.ContainerNode):
+            return cast("ContainerNode", node)
         return None
 
     def send(self, msg: Configuration) -> MissionResult:
@@ -235,13 +246,16 @@ class PX4Node:
 
 @dataclasses.dataclass(frozen=True)
 class PX4Component:
-    """PX4 (our PX4-compatible autopilot plus its ground station) for any ProcessSimulator.
+    """PX4 plus its ground station, for any ProcessSimulator (the paper's ``PX4Component``).
 
-    ``world`` tells it where home is and which topics carry the sensors (``topics``
-    overrides the autopilot's side only, to read from an injector); ``params`` sets PX4
-    parameters (``MPC_XY_CRUISE``, ``NAV_ACC_RAD``, ...); ``geofence`` bounds missions.
-    The autopilot runs where WorldComponent's world does (``process``, ``image``); the
-    ground station always runs in this process.
+    ``firmware`` picks the autopilot: None for the built-in PX4-compatible one, or a
+    :class:`~multicosim.px4.SITL` for real PX4 SITL flying the world. ``world`` tells it
+    where home is and which topics carry the sensors (``topics`` overrides the autopilot's
+    side only, to read from an injector); ``params`` sets PX4 parameters (``MPC_XY_CRUISE``,
+    ``NAV_ACC_RAD``, ...); ``geofence`` bounds missions. The built-in autopilot runs where
+    WorldComponent's world does (``process``, ``image``); real PX4 runs as a process, or as
+    a container of ``image`` in a ContainerSimulator. The ground station always runs in
+    this process.
     """
 
     world: MuJoCo = dataclasses.field(default_factory=MuJoCo)
@@ -253,9 +267,12 @@ class PX4Component:
     topics: Topics | None = None
     process: bool | None = None
     image: str | None = None
+    firmware: SITL | None = None
 
     def required_images(self) -> tuple[str, ...]:
         """The image the autopilot runs in, if any (checked before a ContainerSimulator starts)."""
+        if self.firmware is not None:
+            return (self.firmware.image,) if self.firmware.image is not None else ()
         return (self.image,) if self.image is not None else ()
 
     @property
@@ -272,6 +289,18 @@ class PX4Component:
         if not isinstance(self.geofence, Geofence):
             raise ConfigurationError("geofence", self.geofence, "a px4.Geofence")
         _check_image(self.image)
+        if self.firmware is not None:
+            if not isinstance(self.firmware, SITL):
+                raise ConfigurationError(
+                    "firmware", self.firmware, "None (the built-in autopilot) or a px4.SITL"
+                )
+            if self.fidelity == "low":
+                raise ConfigurationError(
+                    "fidelity",
+                    self.fidelity,
+                    "'medium' or 'high' with real PX4 (it flies the MuJoCo world; low "
+                    "fidelity is the built-in autopilot's point mass)",
+                )
         self.spec  # noqa: B018 - validates params, rates and topics now, before any start
 
     @property
@@ -286,17 +315,33 @@ class PX4Component:
         return AutopilotSpec(
             airframe="point_mass" if low else "quadrotor",
             period=LOW_PERIOD if low else self.world.period,
-            topics=self.topics or self.world.topics,
+            topics=self.topics or world_topics(self.world),
             uplink=f"{self.name}/mavlink/up",
             downlink=f"{self.name}/mavlink/down",
             wire="native" if _in_process(self.fidelity, self.process) else "mavlink",
             telemetry_rate=self.rate,
             params=params,
+            mag_declination=self.world.declination,
         )
+
+    def sitl_params(self) -> dict[str, float]:
+        """The parameters real PX4 boots with: the world's declination, fence, ``params``."""
+        assert self.firmware is not None
+        return {
+            # The world's field is the truth PX4 must use, not its own field model's.
+            "EKF2_DECL_TYPE": 0,
+            "EKF2_MAG_DECL": round(math.degrees(self.world.declination), 3),
+            "GF_MAX_HOR_DIST": self.geofence.radius,
+            "GF_MAX_VER_DIST": self.geofence.max_alt,
+            **self.params,
+            **self.firmware.params,
+        }
 
     def start(self, environment: LocalEnvironment) -> PX4Node:
         """Start the autopilot (in-process, a process or a container) and the ground station."""
         spec = self.spec
+        if self.firmware is not None:
+            return self._start_sitl(environment, spec)
         if self.image is None and _in_process(self.fidelity, self.process):
             autopilot: Node = ParticipantComponent(lambda: Autopilot(spec), self.name).start(
                 environment
@@ -305,20 +350,47 @@ class PX4Component:
             autopilot = _start_participant(
                 environment, self.name, "multicosim.px4._autopilot:autopilot", spec, self.image
             )
+        return self._with_ground_station(environment, spec, autopilot)
+
+    def _with_ground_station(
+        self, environment: LocalEnvironment, spec: AutopilotSpec, autopilot: Node, **gcs: Any
+    ) -> PX4Node:
+        """The node: ``autopilot`` (stopped if this fails) and a ground station for it."""
         try:
             gcs_spec = GcsSpec(
                 uplink=spec.uplink,
                 downlink=spec.downlink,
-                truth=self.world.topics.truth,
+                truth=world_topics(self.world).truth,
                 period=1.0 / self.rate,
+                **gcs,
             )
-            gcs = InProcessFirmwareComponent(
+            node = InProcessFirmwareComponent(
                 ground_station(gcs_spec, f"{self.name}.gcs"), name=f"{self.name}.gcs"
             ).start(environment)
         except BaseException:
             autopilot.stop()
             raise
-        return PX4Node(self.name, gcs, autopilot, self)
+        return PX4Node(self.name, node, autopilot, self)
+
+    def _start_sitl(self, environment: LocalEnvironment, spec: AutopilotSpec) -> PX4Node:
+        assert self.firmware is not None
+        topics = spec.topics
+        group = start_sitl(
+            self.firmware,
+            environment,
+            name=self.name,
+            topics=topics,
+            period=sitl_period(self.world),
+            wire=spec.wire,
+            uplink=spec.uplink,
+            downlink=spec.downlink,
+            params=self.sitl_params(),
+        )
+        # PX4's estimator needs its GPS checks passed (about 10 s) before it arms; its
+        # MAVLink thread answers in wall time, so commands get more slack.
+        return self._with_ground_station(
+            environment, spec, group, preflight_timeout=120.0, command_timeout=3.0
+        )
 
 
 class PX4Simulation(ScenarioSimulation):
@@ -337,6 +409,19 @@ class PX4Simulation(ScenarioSimulation):
 
         return trace_options(self.firmware._component.world)
 
+    def flight_logs(self) -> list[Path]:
+        """Real PX4's ULog files so far (``log/**/*.ulg``; Flight Review reads them).
+
+        From a container they are copied into the run directory first. Empty for the
+        built-in autopilot. A log is complete once PX4 has disarmed (it logs from boot
+        until disarm).
+        """
+        nodes = getattr(self.firmware._autopilot, "flight_logs", None)
+        if nodes is None:
+            return []
+        logs: list[Path] = nodes(self.simulation.run_dir / "px4-ulog")
+        return logs
+
 
 class PX4:
     """A Simulator with the quadrotor world and PX4 already added (the paper's ``px4.PX4``).
@@ -345,9 +430,13 @@ class PX4:
     finer step, ``HIGH_FIDELITY_WORLD``, unless ``world`` is given); ``backend`` where the
     world and the autopilot run ("process": in this process at low fidelity, else local
     processes; "docker": containers of ``multicosim.docker.RUNTIME_IMAGE``, built with
-    ``python -m multicosim.docker build``). ``seed`` fixes every random source;
-    ``realtime`` paces the simulation to wall time (for external ground stations). More
-    components (injectors, monitors) can be added with ``add`` before ``start``.
+    ``python -m multicosim.docker build``). ``firmware`` picks the autopilot: None for the
+    built-in one, ``px4.SITL(binary=...)`` for real PX4 SITL (a process on the process
+    backend, a container on the docker backend) flying the MuJoCo world, which then runs
+    in this process (or its container) at PX4's 250 Hz sensor rate. ``seed`` fixes every
+    random source of the world; ``realtime`` paces the simulation to wall time (for external
+    ground stations). More components (injectors, monitors) can be added with ``add``
+    before ``start``.
     """
 
     def __init__(
@@ -363,11 +452,21 @@ class PX4:
         telemetry_rate: float | None = None,
         autopilot_topics: Topics | None = None,
         run_dir: str | None = None,
+        firmware: SITL | None = None,
     ) -> None:
         _check_fidelity(fidelity)
         world = world if world is not None else default_world(fidelity)
         if not isinstance(world, MuJoCo):
             raise ConfigurationError("world", world, "a px4.MuJoCo configuration")
+        if firmware is not None and isinstance(firmware, SITL):
+            if backend == "process" and firmware.binary is None:
+                raise ConfigurationError(
+                    "firmware",
+                    firmware,
+                    "px4.SITL(binary=...) on the process backend (an image runs on "
+                    "backend='docker')",
+                )
+            world = dataclasses.replace(world, period=sitl_period(world))
         if backend not in BACKENDS:
             raise ConfigurationError(
                 "backend",
@@ -386,7 +485,12 @@ class PX4:
             image = RUNTIME_IMAGE
         else:
             self._sim = ProcessSimulator(seed=seed, realtime=realtime, run_dir=run_dir)
-        self.world_id: NodeId[Node] = self._sim.add(WorldComponent(world, fidelity, image=image))
+        # With real PX4 as a process, the world is its simulator in this process (as Gazebo
+        # is PX4's): one lockstep exchange per 4 ms step instead of two.
+        process = False if firmware is not None and backend == "process" else None
+        self.world_id: NodeId[Node] = self._sim.add(
+            WorldComponent(world, fidelity, image=image, process=process)
+        )
         self._firmware = PX4Component(
             world,
             fidelity,
@@ -394,14 +498,21 @@ class PX4:
             params=dict(params or {}),
             telemetry_rate=telemetry_rate,
             topics=autopilot_topics,
-            image=image,
+            image=image if firmware is None else None,
+            process=process,
+            firmware=firmware,
         )
         self.firmware_id: NodeId[PX4Node] = self._sim.add(self._firmware)
 
     @property
+    def firmware(self) -> SITL | None:
+        """Real PX4 SITL when it is the autopilot, None for the built-in one."""
+        return self._firmware.firmware
+
+    @property
     def autopilot_topics(self) -> Topics:
         """The topics the autopilot reads its sensors from."""
-        return self._firmware.topics or self.world.topics
+        return self._firmware.topics or world_topics(self.world)
 
     @property
     def wire(self) -> Wire:
@@ -442,4 +553,15 @@ class PX4:
 
     def start(self) -> PX4Simulation:
         """Start the world and PX4 (and anything added); return the simulation."""
+        sitl = self._firmware.firmware
+        if sitl is not None and self.backend == "docker" and sitl.image is None:
+            # Real PX4 in a container: its image is built from the binary's bundle (once;
+            # a build whose inputs did not change is skipped).
+            from ..docker import build_px4
+
+            image = build_px4(sitl.bundle)
+            self._firmware = dataclasses.replace(
+                self._firmware, firmware=dataclasses.replace(sitl, image=image)
+            )
+            self._sim.replace(self.firmware_id, self._firmware)
         return PX4Simulation(self._sim.start(), self.firmware_id, self.world_id)

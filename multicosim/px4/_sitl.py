@@ -17,14 +17,15 @@ import threading
 from collections.abc import Callable
 from typing import Any
 
-from .._local import ParticipantComponent, ProcessSimulator
+from .._local import LocalEnvironment, ParticipantComponent, ProcessSimulator
 from .._runtime import StepContext, Subscription
 from ._autopilot import Autopilot
-from ._config import MuJoCo
+from ._config import MuJoCo, world_topics
 from ._hil import MavlinkPacket
+from ._real import SITL, SitlNodes
 from ._simulator import Fidelity, PX4Component, WorldComponent
 
-__all__ = ["Link", "UdpBridge", "run_sitl"]
+__all__ = ["Link", "UdpBridge", "run_real_sitl", "run_sitl"]
 
 log = logging.getLogger(__name__)
 
@@ -135,9 +136,70 @@ def run_sitl(
         if on_ready is not None:
             on_ready(bridge.local_ports)
         log.info("SITL running at %gx real time; links %s", speed, links)
-        while (stop is None or not stop.is_set()) and (
-            duration is None or simulation.time < duration
-        ):
-            step = 0.25 if duration is None else min(0.25, duration - simulation.time)
-            simulation.advance(max(step, 1e-3))
-        return simulation.time
+        return _run(simulation, duration, stop)
+
+
+def _run(simulation: Any, duration: float | None, stop: threading.Event | None) -> float:
+    """Advance ``simulation`` until ``duration`` or ``stop``; the simulated time reached."""
+    while (stop is None or not stop.is_set()) and (duration is None or simulation.time < duration):
+        step = 0.25 if duration is None else min(0.25, duration - simulation.time)
+        simulation.advance(max(step, 1e-3))
+    return float(simulation.time)
+
+
+@dataclasses.dataclass(frozen=True)
+class _StandalonePX4:
+    """Real PX4 with only its simulator bridge: PX4 keeps its own MAVLink links and ports."""
+
+    sitl: SITL
+    world: MuJoCo
+    params: dict[str, float]
+    name: str = "px4"
+
+    def start(self, environment: LocalEnvironment) -> SitlNodes:
+        from ._real import start_sitl
+
+        return start_sitl(
+            self.sitl,
+            environment,
+            name=self.name,
+            topics=world_topics(self.world),
+            period=self.world.period,
+            wire="native",
+            uplink=None,
+            downlink="",
+            params=self.params,
+        )
+
+
+def run_real_sitl(
+    sitl: SITL,
+    *,
+    speed: float = 1.0,
+    world: MuJoCo | None = None,
+    seed: int = 0,
+    duration: float | None = None,
+    stop: threading.Event | None = None,
+    on_ready: Callable[[int], None] | None = None,
+) -> float:
+    """Run real PX4 SITL on our MuJoCo world, paced at ``speed`` x real time, in lockstep.
+
+    PX4 keeps its usual MAVLink links (QGroundControl on UDP 14550, MAVSDK on 14540 + its
+    instance number), so ground stations fly it as they fly PX4 with Gazebo. Runs until
+    ``duration`` simulated seconds, ``stop`` or Ctrl-C; returns the simulated time reached.
+    ``on_ready`` gets PX4's instance number once it is connected.
+    """
+    from ._simulator import PX4Component, sitl_period
+
+    world = world or MuJoCo()
+    world = dataclasses.replace(world, period=sitl_period(world))
+    params = PX4Component(world, "medium", firmware=sitl).sitl_params()
+    sim = ProcessSimulator(seed=seed, realtime=speed)
+    sim.add(WorldComponent(world, "medium", process=False))
+    px4_id = sim.add(_StandalonePX4(sitl, world, params))
+    with sim.start() as simulation:
+        instance = simulation.get(px4_id).instance
+        if on_ready is not None:
+            on_ready(instance)
+        log.info("real PX4 SITL (instance %d) running at %gx real time", instance, speed)
+        return _run(simulation, duration, stop)

@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 from ..trace import TraceOptions, location_fix, pose_in_frame
-from ._config import MuJoCo
+from ._config import MuJoCo, world_topics
 from ._hil import Truth
 
 __all__ = ["trace_options"]
@@ -35,7 +35,7 @@ def trace_options(world: MuJoCo) -> TraceOptions:
         m = _fields(m)
         return (m[f["east"]], m[f["north"]], -m[f["down"]]), (1.0, 0.0, 0.0, 0.0)
 
-    truth = world.topics.truth
+    truth = world_topics(world).truth
     return TraceOptions(
         types={truth: Truth},
         converters=[location_fix(truth, fix), pose_in_frame(truth, pose)],

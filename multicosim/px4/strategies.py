@@ -17,8 +17,8 @@ import math
 
 from hypothesis import strategies as st
 
+from ..geo import LocalProjection
 from ._config import Configuration, Geofence, Home, MissionEnd, MuJoCo, Waypoint
-from ._geo import LocalProjection
 
 __all__ = ["missions", "waypoints", "worlds"]
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
-from ..mujoco._geo import local_to_geodetic
+from ..geo import local_to_geodetic
 from ._messages import (
     COMMAND_TOPIC,
     MAX_STEERING,
@@ -62,7 +62,8 @@ class KinematicWorld:
         world = self.config.world
         self._home = world.home
         # Checked once: the ideal (default) case must cost no noise draws at all.
-        self._ideal = self.config.noise.ideal
+        self._noise = self.config.sensor_noise
+        self._ideal = self._noise.ideal
         self._topics = {name: world.topic(name, t) for name, t in SENSOR_TOPICS.items()}
 
     def setup(self, ctx: StepContext) -> None:
@@ -117,7 +118,7 @@ class KinematicWorld:
         gyro = [0.0, 0.0, v * curvature]
         speed = v
         if not self._ideal:
-            noise, rng = self.config.noise, ctx.rng
+            noise, rng = self._noise, ctx.rng
             dx, dy, dz = rng.normal(0.0, noise.position, 3).tolist()
             x, y, z = x + dx, y + dy, z + dz
             dx, dy, dz = rng.normal(0.0, noise.magnetometer, 3).tolist()

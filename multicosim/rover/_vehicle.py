@@ -141,6 +141,14 @@ class SensorNoise:
         """True when no sensor is noisy."""
         return not any(getattr(self, f.name) for f in dataclasses.fields(self))
 
+    def scaled(self, factor: float) -> SensorNoise:
+        """Every standard deviation times ``factor``."""
+        if factor == 1.0:
+            return self
+        return SensorNoise(
+            **{f.name: getattr(self, f.name) * factor for f in dataclasses.fields(self)}
+        )
+
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
 class RoverWorldConfig:
@@ -155,3 +163,8 @@ class RoverWorldConfig:
         if not isinstance(self.noise, SensorNoise):
             raise ConfigurationError("noise", self.noise, "a SensorNoise")
         check_sensor_topics(self.world, SENSOR_TOPICS)
+
+    @property
+    def sensor_noise(self) -> SensorNoise:
+        """The noise the sensors get: ``noise`` scaled by the world's ``noise`` factor."""
+        return self.noise.scaled(self.world.noise)

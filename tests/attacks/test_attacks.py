@@ -15,8 +15,8 @@ import multicosim.attacks as attacks
 import multicosim.px4 as px4
 import multicosim.rover as rover
 from multicosim.attacks import strategies as ast
+from multicosim.geo import LocalProjection
 from multicosim.px4 import hil
-from multicosim.px4._geo import LocalProjection
 from multicosim.rover import MagneticField, Position
 
 PERIOD = 0.1

@@ -16,7 +16,7 @@ from multicosim.docker import (
     ContainerNode,
     ImageMissingError,
 )
-from multicosim.px4._geo import LocalProjection
+from multicosim.geo import LocalProjection
 
 HOME = px4.Home()
 PROJ = LocalProjection(HOME.lat, HOME.lon)

@@ -11,8 +11,8 @@ from hypothesis import strategies as st
 
 import multicosim as mcs
 import multicosim.px4 as px4
+from multicosim.geo import LocalProjection, pressure_altitude, pressure_hpa
 from multicosim.px4 import strategies as px4st
-from multicosim.px4._geo import LocalProjection, pressure_altitude, pressure_hpa
 
 
 @pytest.mark.parametrize(
@@ -51,7 +51,7 @@ def test_mission_of_the_wrong_type_is_refused() -> None:
         ({"integrator": "leapfrog"}, "integrator"),
         ({"solver": "magic"}, "solver"),
         ({"iterations": 0}, "iterations"),
-        ({"timestep": 0.002, "period": 0.003}, "period"),
+        ({"timestep": 0.004, "period": 0.002}, "period"),
     ],
 )
 def test_bad_world_configurations(kwargs: dict[str, object], field: str) -> None:
@@ -76,7 +76,7 @@ def test_configurations_round_trip_as_messages() -> None:
     config = px4.Configuration([px4.Waypoint(47.398, 8.546, 25.0)], end="rtl")
     data = msgspec.msgpack.encode(config)
     assert msgspec.msgpack.decode(data, type=px4.Configuration) == config
-    world = px4.MuJoCo(solver="CG", topics=px4.Topics(gps="gps/attacked"))
+    world = px4.MuJoCo(solver="CG", sensor_topics={"gps": "gps/attacked"})
     assert msgspec.json.decode(msgspec.json.encode(world), type=px4.MuJoCo) == world
     bad = b'{"mission": [{"lat": 91, "lon": 8.5, "alt": 1}]}'
     with pytest.raises(msgspec.ValidationError, match="lat"):
@@ -116,7 +116,7 @@ def test_generated_missions_are_inside_the_geofence(config: px4.Configuration) -
 
 @given(px4st.worlds())
 def test_generated_worlds_are_valid(world: px4.MuJoCo) -> None:
-    assert world.substeps >= 1
+    assert world.steps_per_period >= 1
 
 
 def test_public_names() -> None:
@@ -136,6 +136,7 @@ def test_public_names() -> None:
         "PX4Component",
         "PX4Node",
         "PX4Simulation",
+        "SITL",
         "Sample",
         "Topics",
         "Waypoint",

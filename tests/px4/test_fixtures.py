@@ -43,7 +43,7 @@ def test_high_fidelity_runs_our_autopilot_and_real_px4_needs_a_sitl(
             assert px4_simulation.firmware.autopilot is None  # a process at high fidelity
             px4_simulation.advance(0.5)
 
-        def test_real(px4_real):
+        def test_real(px4_sitl):
             pass
         """
     )

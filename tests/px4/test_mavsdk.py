@@ -13,7 +13,7 @@ from typing import Any
 
 import pytest
 
-from multicosim.px4._geo import LocalProjection
+from multicosim.geo import LocalProjection
 
 mavsdk = pytest.importorskip("mavsdk.asyncio", reason="mavsdk (pip install mavsdk) not installed")
 

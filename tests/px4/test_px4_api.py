@@ -10,8 +10,8 @@ from hypothesis import HealthCheck, given, settings
 
 import multicosim as mcs
 import multicosim.px4 as px4
+from multicosim.geo import LocalProjection
 from multicosim.px4 import strategies as px4st
-from multicosim.px4._geo import LocalProjection
 from multicosim.px4._hil import HilGps, MavlinkPacket
 
 HOME = px4.Home()

@@ -1,15 +1,42 @@
-"""WGS84 <-> local NED, the azimuthal equidistant projection PX4 uses (``map_projection``).
+"""Geographic coordinates around a home position: one projection for every vehicle.
 
-Scalar math only: these run in the estimator's and the world's hot loops.
+The local frame is PX4's (``map_projection``): the azimuthal equidistant projection on a
+spherical Earth, so a GPS fix built by a world agrees with what PX4 (and our autopilot)
+compute from it. Worlds, autopilots, attack models and tests all project with
+:class:`LocalProjection`; the ENU helpers are the same projection with axes swapped.
+
+Scalar math only: this runs in the worlds' and the estimator's hot loops.
 """
 
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
-__all__ = ["EARTH_RADIUS", "LocalProjection", "pressure_altitude", "pressure_hpa"]
+__all__ = [
+    "EARTH_RADIUS",
+    "Home",
+    "LocalProjection",
+    "geodetic_to_local",
+    "local_to_geodetic",
+    "pressure_altitude",
+    "pressure_hpa",
+]
 
-EARTH_RADIUS = 6_371_000.0  # m, PX4's CONSTANTS_RADIUS_OF_EARTH
+EARTH_RADIUS = 6_371_000.0
+"""Metres: the sphere of PX4's map projection (``CONSTANTS_RADIUS_OF_EARTH``)."""
+
+
+class Home(NamedTuple):
+    """Where a local frame's origin is: WGS84 latitude, longitude (degrees), altitude (m AMSL).
+
+    The default is PX4 SITL's home (``PX4_HOME_LAT/LON/ALT``, Zurich), so that a world and
+    PX4 agree on where "here" is.
+    """
+
+    lat: float = 47.397742
+    lon: float = 8.545594
+    alt: float = 488.0
 
 
 class LocalProjection:
@@ -24,6 +51,11 @@ class LocalProjection:
         self._lon0 = math.radians(lon)
         self._sin0 = math.sin(self._lat0)
         self._cos0 = math.cos(self._lat0)
+
+    @classmethod
+    def at(cls, home: tuple[float, float, float] | tuple[float, float]) -> LocalProjection:
+        """The projection around ``home`` (latitude, longitude[, altitude])."""
+        return cls(home[0], home[1])
 
     def project(self, lat: float, lon: float) -> tuple[float, float]:
         """North and east (m) of ``lat, lon`` from the reference."""
@@ -47,6 +79,22 @@ class LocalProjection:
         lat = math.asin(cos_c * self._sin0 + x * sin_c * self._cos0 / c)
         lon = self._lon0 + math.atan2(y * sin_c, c * self._cos0 * cos_c - x * self._sin0 * sin_c)
         return math.degrees(lat), math.degrees(lon)
+
+
+def local_to_geodetic(
+    home: tuple[float, float, float], east: float, north: float, up: float
+) -> tuple[float, float, float]:
+    """(latitude, longitude, altitude) of the point ``east, north, up`` metres from ``home``."""
+    lat, lon = LocalProjection.at(home).reproject(north, east)
+    return lat, lon, home[2] + up
+
+
+def geodetic_to_local(
+    home: tuple[float, float, float], latitude: float, longitude: float, altitude: float
+) -> tuple[float, float, float]:
+    """(east, north, up) metres of a geodetic position relative to ``home``."""
+    north, east = LocalProjection.at(home).project(latitude, longitude)
+    return east, north, altitude - home[2]
 
 
 def pressure_hpa(altitude_amsl: float) -> float:

@@ -1,0 +1,121 @@
+"""The quadrotor in MuJoCo: the vehicle plug-in of the world that PX4 (ours or the real one) flies.
+
+``python -m multicosim participant multicosim.px4._world:world --config JSON`` runs it as a
+process. It reads HIL_ACTUATOR_CONTROLS (four motor outputs in [0, 1] while armed) and
+publishes PX4's sensor messages through :class:`~multicosim.px4._sensors.HilSensors`.
+
+MuJoCo's frames are east-north-up (world) and forward-left-up (body); PX4's are
+north-east-down and forward-right-down. The conversion happens here, once per period.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
+
+import mujoco
+
+from ..px4._airframe import NONE_IRIS, Airframe
+from ..px4._config import SENSORS, Topics
+from ..px4._hil import (
+    ACTUATOR_FLAG_VELOCITY,
+    ARMED_FLAG,
+    HilActuatorControls,
+    MavlinkPacket,
+    Wire,
+    read,
+)
+from ..px4._sensors import HilSensors
+from ._world import Physics
+
+if TYPE_CHECKING:
+    from .._runtime import StepContext, Subscription
+
+__all__ = ["QuadrotorVehicle", "ned_attitude"]
+
+_H = math.sqrt(0.5)
+
+
+def _mul(a: tuple[float, ...], b: tuple[float, ...]) -> tuple[float, float, float, float]:
+    aw, ax, ay, az = a
+    bw, bx, by, bz = b
+    return (
+        aw * bw - ax * bx - ay * by - az * bz,
+        aw * bx + ax * bw + ay * bz - az * by,
+        aw * by - ax * bz + ay * bw + az * bx,
+        aw * bz + ax * by - ay * bx + az * bw,
+    )
+
+
+# NED from ENU: a half turn about (1, 1, 0)/sqrt(2); FLU from FRD: a half turn about x.
+_NED_FROM_ENU = (0.0, _H, _H, 0.0)
+_FLU_FROM_FRD = (0.0, 1.0, 0.0, 0.0)
+
+
+def ned_attitude(q_enu_flu: tuple[float, ...]) -> tuple[float, float, float, float]:
+    """PX4's attitude (FRD body to NED) from MuJoCo's (FLU body to ENU), both w, x, y, z."""
+    return _mul(_mul(_NED_FROM_ENU, q_enu_flu), _FLU_FROM_FRD)
+
+
+class QuadrotorVehicle:
+    """A quadrotor built from an :class:`~multicosim.px4._airframe.Airframe` (PX4's none_iris).
+
+    Motor outputs drive the rotors only while the HIL_ACTUATOR_CONTROLS mode says armed
+    (as PX4's simulators do); sensors come out on the world's topics in ``wire`` form.
+    """
+
+    sensors: Mapping[str, str] = {name: getattr(Topics(), name) for name in SENSORS}
+
+    def __init__(self, airframe: Airframe = NONE_IRIS, wire: Wire = "native") -> None:
+        self.airframe = airframe
+        self.wire = wire
+        self._actuators: Subscription[Any] | None = None
+        self._hil: HilSensors | None = None
+        self._cmd: HilActuatorControls | None = None
+        self._motors = len(airframe.rotors)
+
+    def load_model(self) -> Any:
+        """The MJCF model generated from the airframe."""
+        return mujoco.MjModel.from_xml_string(self.airframe.mjcf())
+
+    def setup(self, physics: Physics, ctx: StepContext, topics: Mapping[str, str]) -> None:
+        """Subscribe to the actuator outputs; set up the sensor suite."""
+        self._hil = HilSensors(physics.config, physics.config.period, self.wire)
+        self._hil.setup(ctx)
+        tp = MavlinkPacket if self.wire == "mavlink" else HilActuatorControls
+        self._actuators = ctx.subscribe(self._hil.topics.actuators, tp)
+        self._accel = physics.sensor("accelerometer")
+        self._gyro = physics.sensor("gyro")
+
+    def actuate(self, physics: Physics, ctx: StepContext) -> None:
+        """Apply the latest motor outputs (zero while disarmed)."""
+        sub = self._actuators
+        assert sub is not None, "setup() was not called"
+        if sub._deliveries:
+            latest = sub.latest
+            self._cmd = read(latest, HilActuatorControls) if self.wire == "mavlink" else latest
+        cmd = self._cmd
+        ctrl = physics.data.ctrl
+        if cmd is not None and cmd.mode & ARMED_FLAG and not cmd.flags & ACTUATOR_FLAG_VELOCITY:
+            ctrl[:] = cmd.controls[: self._motors]
+        else:
+            ctrl[:] = 0.0
+
+    def sense(self, physics: Physics, ctx: StepContext) -> None:
+        """Publish PX4's sensor messages for the state reached."""
+        hil = self._hil
+        assert hil is not None, "setup() was not called"
+        d = physics.data
+        x, y, z, qw, qx, qy, qz = d.qpos.tolist()
+        vx, vy, vz = d.qvel[:3].tolist()
+        a = self._accel.tolist()
+        gyro = self._gyro.tolist()
+        hil.publish(
+            ctx,
+            (y, x, self.airframe.ground_offset - z),
+            (vy, vx, -vz),
+            ned_attitude((qw, qx, qy, qz)),
+            (a[0], -a[1], -a[2]),
+            (gyro[0], -gyro[1], -gyro[2]),
+        )

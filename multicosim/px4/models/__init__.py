@@ -1,1 +1,0 @@
-"""Package data: the MJCF quadrotor (a package so that wheels include it)."""

@@ -1,0 +1,399 @@
+"""Real PX4 SITL flying our world: its simulator interface, the launch, errors and evidence.
+
+The flights need a PX4 SITL binary (``--mcs-px4-binary`` or ``MCS_PX4_BINARY``; CI gives
+the one in ../shared/px4-sitl) and skip with the reason where none is configured. The rest
+runs everywhere: the bridge against a MAVLink peer that behaves like PX4's
+simulator_mavlink, and the launch errors against stand-in ``px4`` programs.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+import multicosim as mcs
+import multicosim.px4 as px4
+from multicosim.geo import LocalProjection
+from multicosim.px4._config import world_topics
+from multicosim.px4._hil import Truth
+from multicosim.px4._hilserver import SIM_PORT, HilTcpBridge
+from multicosim.px4._real import API_LOCAL_PORT, claim_instance
+from multicosim.px4._simulator import WorldComponent
+from pytest_multicosim.px4 import RealPX4
+
+mavutil = pytest.importorskip("pymavlink.mavutil")
+
+HOME = px4.Home()
+PROJ = LocalProjection(HOME.lat, HOME.lon)
+
+
+def wp(north: float, east: float, alt: float) -> px4.Waypoint:
+    """A waypoint ``north``/``east`` metres from home."""
+    lat, lon = PROJ.reproject(north, east)
+    return px4.Waypoint(lat, lon, alt)
+
+
+def fake_px4(tmp_path: Path, script: str) -> Path:
+    """A stand-in PX4 directory: ``bin/px4`` runs ``script``; ``etc`` has rcS and none_iris."""
+    (tmp_path / "bin").mkdir()
+    binary = tmp_path / "bin" / "px4"
+    binary.write_text("#!/bin/sh\n" + script + "\n")
+    binary.chmod(0o755)
+    airframes = tmp_path / "etc" / "init.d-posix" / "airframes"
+    airframes.mkdir(parents=True)
+    (tmp_path / "etc" / "init.d-posix" / "rcS").write_text("#!/bin/sh\n")
+    (airframes / "10016_none_iris").write_text("#!/bin/sh\n")
+    return binary
+
+
+# -- configuration, refused before anything starts -------------------------------------------
+
+
+def test_sitl_needs_a_binary_or_an_image() -> None:
+    with pytest.raises(mcs.ConfigurationError, match="firmware"):
+        px4.SITL()
+
+
+def test_sitl_refuses_a_missing_binary(tmp_path: Path) -> None:
+    with pytest.raises(mcs.ConfigurationError, match=r"binary=.*an existing file"):
+        px4.SITL(binary=str(tmp_path / "nowhere" / "px4"))
+
+
+def test_sitl_refuses_a_file_that_is_not_executable(tmp_path: Path) -> None:
+    binary = fake_px4(tmp_path, "exit 0")
+    binary.chmod(0o644)
+    with pytest.raises(mcs.ConfigurationError, match="an executable file"):
+        px4.SITL(binary=str(binary))
+
+
+def test_sitl_refuses_a_binary_without_its_etc_directory(tmp_path: Path) -> None:
+    binary = fake_px4(tmp_path, "exit 0")
+    (tmp_path / "etc" / "init.d-posix" / "rcS").unlink()
+    with pytest.raises(mcs.ConfigurationError, match=r"etc=.*init.d-posix/rcS"):
+        px4.SITL(binary=str(binary))
+
+
+def test_sitl_refuses_an_unknown_airframe(tmp_path: Path) -> None:
+    binary = fake_px4(tmp_path, "exit 0")
+    with pytest.raises(mcs.ConfigurationError, match="model='gz_x500'"):
+        px4.SITL(binary=str(binary), model="gz_x500")
+
+
+@pytest.mark.parametrize(
+    ("params", "field"),
+    [({"mpc_xy_cruise": 5.0}, "params"), ({"MPC_XY_CRUISE": math.nan}, "params['MPC_XY_CRUISE']")],
+)
+def test_sitl_refuses_bad_parameters(tmp_path: Path, params: dict[str, float], field: str) -> None:
+    binary = fake_px4(tmp_path, "exit 0")
+    with pytest.raises(mcs.ConfigurationError) as info:
+        px4.SITL(binary=str(binary), params=params)
+    assert info.value.field == field
+
+
+def test_real_px4_does_not_fly_the_point_mass(tmp_path: Path) -> None:
+    sitl = px4.SITL(binary=str(fake_px4(tmp_path, "exit 0")))
+    with pytest.raises(mcs.ConfigurationError, match=r"fidelity='low'.*medium"):
+        px4.PX4(fidelity="low", firmware=sitl)
+
+
+def test_an_image_runs_on_the_docker_backend_only() -> None:
+    with pytest.raises(mcs.ConfigurationError, match="backend='docker'"):
+        px4.PX4(fidelity="medium", firmware=px4.SITL(image="multicosim/px4-sitl:0.1.0"))
+
+
+# -- the simulator interface -----------------------------------------------------------------
+
+
+class FakeSimulatorClient(threading.Thread):
+    """Connects like PX4 SITL and answers every IMU sample with fixed motor outputs."""
+
+    def __init__(self, port: int, throttle: float, garbage_first: bool = False) -> None:
+        super().__init__(name="px4-like", daemon=True)
+        self.port, self.throttle, self.garbage_first = port, throttle, garbage_first
+        self.stop = threading.Event()
+        self.imu = 0
+        self.gps_fix = 0
+        self.ground_truth = 0
+        self.first_time: int | None = None
+        self.error: BaseException | None = None
+
+    def run(self) -> None:
+        try:
+            from pymavlink.dialects.v20 import common
+
+            mav = common.MAVLink(None, srcSystem=1, srcComponent=1)
+            with socket.create_connection(("127.0.0.1", self.port), timeout=5) as sock:
+                sock.settimeout(0.2)
+                # As PX4 does: a heartbeat, then the request for ground truth.
+                sock.sendall(mav.heartbeat_encode(2, 12, 0, 0, 0).pack(mav))
+                ask = mav.command_long_encode(0, 0, 511, 0, 115, 50_000, 0, 0, 0, 0, 0)
+                sock.sendall(ask.pack(mav))
+                while not self.stop.is_set():
+                    try:
+                        data = sock.recv(65536)
+                    except TimeoutError:
+                        continue
+                    if not data:
+                        return
+                    for m in mav.parse_buffer(data) or ():
+                        kind = m.get_type()
+                        if kind == "HIL_GPS":
+                            self.gps_fix = m.fix_type
+                        elif kind == "HIL_STATE_QUATERNION":
+                            self.ground_truth += 1
+                        elif kind == "HIL_SENSOR" and m.fields_updated & 0x3F == 0x3F:
+                            if self.first_time is None:
+                                self.first_time = m.time_usec
+                            self.imu += 1
+                            controls = [self.throttle] * 4 + [0.0] * 12
+                            out = mav.hil_actuator_controls_encode(m.time_usec, controls, 129, 1)
+                            sock.sendall(out.pack(mav))
+        except BaseException as exc:
+            self.error = exc
+
+
+@pytest.mark.parametrize("process", [False, True], ids=["native", "mavlink"])
+def test_bridge_runs_the_world_in_lockstep_with_a_tcp_simulator_client(process: bool) -> None:
+    world = px4.MuJoCo(period=0.004)
+    topics = world_topics(world)
+    sim = mcs.ProcessSimulator(seed=0)
+    sim.add(WorldComponent(world, "medium", process=process))
+    wire = "mavlink" if process else "native"
+    bridge_id = sim.add(
+        mcs.ParticipantComponent(
+            lambda: HilTcpBridge(topics, period=world.period, port=0, wire=wire), "hil"
+        )
+    )
+    truth: list[Truth] = []
+
+    class Recorder:
+        period = 0.05
+
+        def setup(self, ctx: Any) -> None:
+            self.sub = ctx.subscribe(topics.truth, Truth)
+
+        def step(self, ctx: Any) -> None:
+            truth.extend(self.sub.messages)
+
+    sim.add(mcs.ParticipantComponent(Recorder, "recorder"))
+    with sim.start() as simulation:
+        bridge: HilTcpBridge = simulation.get(bridge_id).participant
+        client = FakeSimulatorClient(bridge.port, throttle=0.7)
+        client.start()
+        deadline = time.monotonic() + 10
+        while not bridge.connected and time.monotonic() < deadline:
+            simulation.advance(world.period)
+        assert bridge.connected
+        simulation.advance(2.0)
+        client.stop.set()
+        client.join(5)
+    assert client.error is None, client.error
+    # Every step answered (lockstep); the first sample is stamped after zero, as PX4 needs.
+    assert bridge.steps == bridge.replies > 400
+    assert client.imu >= bridge.steps
+    assert client.first_time is not None
+    assert client.first_time > 0
+    assert client.gps_fix == 3
+    assert client.ground_truth > 10, "HIL_STATE_QUATERNION was asked for and not sent"
+    assert truth[-1].alt > 1.0, "70 % throttle did not lift the quadrotor"
+    n, e = PROJ.project(truth[-1].lat, truth[-1].lon)
+    assert math.hypot(n, e) < 1.0
+
+
+def test_bridge_drops_a_client_that_speaks_no_mavlink() -> None:
+    world = px4.MuJoCo(period=0.004)
+    sim = mcs.ProcessSimulator(seed=0)
+    sim.add(WorldComponent(world, "medium", process=False))
+    bridge_id = sim.add(
+        mcs.ParticipantComponent(
+            lambda: HilTcpBridge(world_topics(world), period=world.period, port=0, wire="native"),
+            "hil",
+        )
+    )
+    with sim.start() as simulation:
+        bridge: HilTcpBridge = simulation.get(bridge_id).participant
+        with socket.create_connection(("127.0.0.1", bridge.port), timeout=5) as intruder:
+            intruder.sendall(b"GET / HTTP/1.0\r\n\r\n" + bytes(range(256)) * 3)
+            simulation.advance(0.1)  # the bridge looks at its clients when it steps
+            assert intruder.recv(1) == b"", "the bridge kept a client that spoke no MAVLink"
+        assert not bridge.connected
+        client = FakeSimulatorClient(bridge.port, throttle=0.0)
+        client.start()
+        deadline = time.monotonic() + 10
+        while not bridge.connected and time.monotonic() < deadline:
+            simulation.advance(world.period)
+        simulation.advance(0.5)
+        client.stop.set()
+        client.join(5)
+    assert client.error is None, client.error
+    assert bridge.replies > 50
+
+
+def test_claimed_instances_skip_ports_in_use() -> None:
+    first, held = claim_instance()
+    try:
+        api = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        api.bind(("127.0.0.1", API_LOCAL_PORT + first + 1))
+        try:
+            second, other = claim_instance()
+            other.close()
+        finally:
+            api.close()
+    finally:
+        held.close()
+    # The simulator port of the first is held, the API port of the next one is taken.
+    assert second not in (first, first + 1)
+    assert held.fileno() == -1
+
+
+# -- the launch's errors -------------------------------------------------------------------------
+
+
+def test_px4_that_exits_at_start_is_named_with_its_exit_code_and_output(tmp_path: Path) -> None:
+    sitl = px4.SITL(binary=str(fake_px4(tmp_path, 'echo "ERROR [px4] no rootfs"; exit 3')))
+    simulator = px4.PX4(fidelity="medium", firmware=sitl)
+    with pytest.raises(mcs.NodeStartError) as info:
+        simulator.start()
+    assert info.value.name == "px4"
+    assert info.value.exit_code == 3
+    assert "no rootfs" in info.value.log_tail
+    assert "before it connected to its simulator" in str(info.value)
+
+
+def test_px4_that_never_connects_fails_after_its_start_timeout(tmp_path: Path) -> None:
+    binary = fake_px4(tmp_path, 'echo "waiting forever"; exec sleep 60')
+    simulator = px4.PX4(fidelity="medium", firmware=px4.SITL(binary=str(binary), start_timeout=1.5))
+    with pytest.raises(mcs.NodeStartError) as info:
+        simulator.start()
+    assert "did not connect to its simulator" in str(info.value)
+    assert "within 1.5 s" in str(info.value)
+    assert "waiting forever" in info.value.log_tail
+
+
+# -- real PX4 ------------------------------------------------------------------------------------
+
+
+def test_real_px4_flies_a_mission_and_leaves_its_flight_log(
+    px4_sitl: RealPX4, tmp_path: Path
+) -> None:
+    pytest.importorskip("pyulog")
+    from pyulog import ULog
+
+    simulator = px4.PX4(fidelity="medium", firmware=px4_sitl.sitl())
+    config = px4.Configuration([wp(30, 0, 12), wp(30, 30, 15)], end="land", time_limit=300.0)
+    with simulator.start() as simulation:
+        result = simulation.firmware.send(config)
+        logs = simulation.flight_logs()
+        ulog = ULog(str(logs[-1])) if logs else None
+    assert result.completed, result.reason
+    assert result.firmware_version == "1.15.4"
+    assert [r.index for r in result.reached] == [0, 1]
+    assert result.landed
+    assert not result.armed
+    n, e = PROJ.project(result.trajectory[-1].true_lat, result.trajectory[-1].true_lon)
+    assert math.hypot(n - 30, e - 30) < 3.0
+    # The ULog is PX4's own record of the flight: read back, it says what the world says.
+    assert ulog is not None, "PX4 left no ULog"
+    assert ulog.msg_info_dict["ver_sw_release"] >> 8 == 0x01_0F_04  # v1.15.4
+    position = ulog.get_dataset("vehicle_local_position")
+    assert min(position.data["z"]) == pytest.approx(-15.0, abs=1.5)
+
+
+def test_real_px4_dying_mid_flight_is_reported_with_its_output(px4_sitl: RealPX4) -> None:
+    simulator = px4.PX4(fidelity="medium", firmware=px4_sitl.sitl())
+    killer: dict[str, int] = {}
+
+    class KillAt:
+        period = 0.1
+
+        def setup(self, ctx: Any) -> None:
+            pass
+
+        def step(self, ctx: Any) -> None:
+            if ctx.time >= 15.0 and killer.get("pid"):
+                os.killpg(killer.pop("pid"), signal.SIGKILL)
+
+    simulator.add(mcs.ParticipantComponent(KillAt, "killer"))
+    with simulator.start() as simulation:
+        killer["pid"] = simulation.firmware._autopilot.process.pid  # type: ignore[attr-defined]
+        with pytest.raises(mcs.NodeCrashedError) as info:
+            simulation.firmware.send(px4.Configuration([wp(40, 0, 15)], time_limit=120.0))
+    assert info.value.name == "px4"
+    assert info.value.exit_code == -signal.SIGKILL
+    assert "Startup script returned successfully" in info.value.log_tail
+
+
+def test_two_real_px4_fly_side_by_side(px4_sitl: RealPX4) -> None:
+    config = px4.Configuration([wp(15, 10, 8)], end="land", time_limit=200.0)
+    with (
+        px4.PX4(fidelity="medium", firmware=px4_sitl.sitl(), seed=1).start() as one,
+        px4.PX4(fidelity="medium", firmware=px4_sitl.sitl(), seed=2).start() as two,
+    ):
+        instances = {sim.firmware._autopilot.instance for sim in (one, two)}  # type: ignore[attr-defined]
+        results = [one.firmware.send(config), two.firmware.send(config)]
+    assert len(instances) == 2
+    for result in results:
+        assert result.completed, result.reason
+
+
+def test_standalone_sitl_serves_px4s_usual_ports(px4_sitl: RealPX4) -> None:
+    if px4_sitl.binary is None:
+        pytest.skip("the standalone SITL runs a PX4 binary")
+    command = [sys.executable, "-m", "multicosim", "px4", "sitl"]
+    command += ["--px4-binary", px4_sitl.binary, "--speed", "5", "--duration", "600"]
+    proc = subprocess.Popen(
+        command,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        start_new_session=True,
+    )
+    try:
+        assert proc.stdout is not None
+        match = None
+        deadline = time.monotonic() + 60
+        while match is None and time.monotonic() < deadline:
+            line = proc.stdout.readline()
+            assert line or proc.poll() is None, "the SITL exited before it was ready"
+            match = re.search(r"instance (\d+) .*udpin://0.0.0.0:(\d+)", line)
+        assert match, "the SITL never said it was ready"
+        instance, port = int(match[1]), int(match[2])
+        assert port == API_LOCAL_PORT - 40 + instance
+        gcs = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}", source_system=250)
+        try:
+            heartbeat = gcs.wait_heartbeat(timeout=60)
+            assert heartbeat is not None
+            assert heartbeat.autopilot == 12  # MAV_AUTOPILOT_PX4
+            version = None
+            for _ in range(10):
+                gcs.mav.command_long_send(gcs.target_system, 1, 512, 0, 148, 0, 0, 0, 0, 0, 0)
+                version = gcs.recv_match(type="AUTOPILOT_VERSION", blocking=True, timeout=3)
+                if version is not None:
+                    break
+            assert version is not None
+            v = version.flight_sw_version
+            assert (v >> 24, v >> 16 & 0xFF, v >> 8 & 0xFF) == (1, 15, 4)
+        finally:
+            gcs.close()
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(30) == 0
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait(10)
+        assert proc.stdout is not None
+        proc.stdout.close()
+    # PX4 and its ports are gone with it.
+    with socket.socket() as sim_port:
+        sim_port.bind(("127.0.0.1", SIM_PORT + instance))
