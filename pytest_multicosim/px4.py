@@ -101,6 +101,23 @@ def pytest_generate_tests(metafunc: pytest.Metafunc) -> None:
     metafunc.parametrize("px4_autopilot", AUTOPILOTS, scope="session")
 
 
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    # Real PX4 flies the MuJoCo world only: a low-fidelity run of it is no test at all.
+    kept, dropped = [], []
+    for item in items:
+        params = _params(item)
+        real_low = params.get("px4_autopilot") == "sitl" and params.get("mcs_fidelity") == "low"
+        (dropped if real_low else kept).append(item)
+    if dropped:
+        config.hook.pytest_deselected(items=dropped)
+        items[:] = kept
+
+
+def _params(item: pytest.Item) -> dict[str, Any]:
+    callspec = getattr(item, "callspec", None)
+    return dict(callspec.params) if callspec is not None else {}
+
+
 @pytest.fixture
 def px4_autopilot(request: pytest.FixtureRequest) -> str:
     """Which autopilot the PX4 fixtures fly: ``builtin`` or ``sitl`` (real PX4)."""
