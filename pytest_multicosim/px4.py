@@ -103,7 +103,8 @@ def pytest_generate_tests(metafunc: pytest.Metafunc) -> None:
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     # Real PX4 flies the MuJoCo world only: a low-fidelity run of it is no test at all.
-    kept, dropped = [], []
+    kept: list[pytest.Item] = []
+    dropped: list[pytest.Item] = []
     for item in items:
         params = _params(item)
         real_low = params.get("px4_autopilot") == "sitl" and params.get("mcs_fidelity") == "low"
