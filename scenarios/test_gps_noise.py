@@ -89,10 +89,11 @@ def test_px4_gps_spoof_pulls_the_vehicle_by_its_offset(
     last = result.trajectory[-1]
     est_n, est_e = PROJ.project(last.lat, last.lon)
     true_n, true_e = PROJ.project(last.true_lat, last.true_lon)
-    # The autopilot believes it holds at the waypoint; in truth it is 10 m south of it.
+    # The autopilot believes it holds at the waypoint; in truth it is 10 m south of it (give
+    # or take the receiver's own drifting error).
     assert math.hypot(est_n, est_e - 40) < 1.5
-    assert true_n - est_n == pytest.approx(-10.0, abs=0.5)
-    assert true_e - est_e == pytest.approx(0.0, abs=0.5)
+    assert true_n - est_n == pytest.approx(-10.0, abs=1.0)
+    assert true_e - est_e == pytest.approx(0.0, abs=1.0)
 
 
 @pytest.mark.fidelity(*LEVELS)
@@ -102,9 +103,10 @@ def test_px4_gps_dropout_triggers_the_failsafe(px4_simulator: px4.PX4, gps_noise
         px4.Configuration([wp(100, 0, 15)], time_limit=120.0)
     )
     assert not result.completed
-    assert "GPS lost" in result.reason
+    assert "Failsafe" in result.reason, result.reason
     failsafe = next(s for s in result.trajectory if s.mode == "AUTO.LAND")
-    assert 12.0 < failsafe.time < 14.0  # within the autopilot's COM_POS_FS_DELAY
+    # PX4 dead-reckons for up to EKF2_NOAID_TOUT (5 s), then waits COM_POS_FS_DELAY (1 s).
+    assert 12.0 < failsafe.time < 19.0
     assert result.landed
     assert not result.armed
     assert min(s.true_alt for s in result.trajectory) > -0.3

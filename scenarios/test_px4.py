@@ -17,7 +17,8 @@ from multicosim.geo import LocalProjection
 
 HOME = px4.Home()
 PROJ = LocalProjection(HOME.lat, HOME.lon)
-# Estimation error allowed on top of the acceptance radius (GPS noise at medium fidelity).
+# Estimation error allowed on top of the acceptance radius (GPS noise at medium fidelity:
+# a receiver's error drifts by about 0.3 m horizontally and 0.5 m vertically, one sigma).
 ESTIMATE_MARGIN = 1.5
 ALL_LEVELS = ("low", "medium", "high")
 
@@ -103,7 +104,7 @@ def test_mission_holds_at_last_waypoint(px4_simulation: px4.PX4Simulation) -> No
     last = again.trajectory[-1]
     n, e = true_ne(last)
     assert math.hypot(n + 30, e - 10) < config.acceptance_radius + ESTIMATE_MARGIN
-    assert abs(last.true_alt - 10) < 1.0
+    assert abs(last.true_alt - 10) < ESTIMATE_MARGIN
 
 
 @pytest.mark.fidelity(*ALL_LEVELS)

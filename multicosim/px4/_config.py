@@ -168,7 +168,9 @@ class Sample(msgspec.Struct, frozen=True, kw_only=True):
     """One trajectory sample as the ground station sees it, plus the world's ground truth.
 
     ``lat``/``lon`` (deg), ``alt`` (m above home) and ``x``/``y``/``z`` (local NED, m) are the
-    autopilot's estimate; ``true_*`` are the world's truth (they differ when sensors lie).
+    autopilot's estimate as it last reported it; ``true_*`` are the world's truth (they
+    differ when sensors lie). The ground station takes one sample per period (20 Hz at
+    medium fidelity and above, 10 Hz at low).
     ``mode`` is PX4's mode name (``AUTO.MISSION``), ``current`` the MAVLink sequence number
     of the current mission item (0: takeoff, 1..n: the configured waypoints, then land/RTL).
     """

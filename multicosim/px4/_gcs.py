@@ -73,6 +73,7 @@ class GroundStation:
         self.reached: list[tuple[int, float]] = []
         self.samples: list[Sample] = []
         self.recording = False
+        self.position: Any = None
         self.version = ""
         self._next_heartbeat = 0.0
 
@@ -103,12 +104,15 @@ class GroundStation:
         for packet in self.down.messages:
             for m in decode_frames(self.mav, packet.data):
                 self._on(m)
+        # One sample a step, whatever the autopilot streams at (and while it reports no
+        # position, as during a GPS loss, with the last it reported).
+        if self.recording and self.position is not None:
+            self._sample(self.position)
 
     def _on(self, m: Any) -> None:
         kind = m.get_type()
         if kind == "GLOBAL_POSITION_INT":
-            if self.recording:
-                self._sample(m)
+            self.position = m
         elif kind == "ATTITUDE":
             self.attitude = m
         elif kind == "LOCAL_POSITION_NED":
@@ -129,6 +133,7 @@ class GroundStation:
                 self.reached.append((m.seq, self.ctx.time))
         elif kind == "STATUSTEXT":
             text = m.text if isinstance(m.text, str) else m.text.decode(errors="replace")
+            text = text.rstrip("\0\t\r\n ")  # PX4 ends its event texts with a tab
             self.texts.append(text)
             if m.severity <= SEV_CRITICAL:
                 self.critical.append(text)
