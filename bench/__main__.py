@@ -35,6 +35,7 @@ BENCHMARKS = (
     "trace",
     "rover",
     "px4",
+    "sitl",
     "docker",
     "throughput",
     "scaling",
@@ -383,6 +384,7 @@ def scaling_rows(data: dict[str, Any]) -> list[Row]:
 BUILDERS: dict[str, Callable[[dict[str, dict[str, Any]]], list[Row]]] = {
     "rover": lambda r: speed_rows(r["rover"], "rover"),
     "px4": lambda r: speed_rows(r["px4"], "PX4"),
+    "sitl": lambda r: sitl_rows(r["sitl"]),
     "physics": lambda r: physics_rows(r.get("rover"), r.get("px4")),
     "transport": lambda r: transport_rows(r["transport"]),
     "docker": lambda r: docker_rows(r["docker"]),
@@ -391,6 +393,48 @@ BUILDERS: dict[str, Callable[[dict[str, dict[str, Any]]], list[Row]]] = {
     "scaling": lambda r: scaling_rows(r["scaling"]),
     "campaign": lambda r: campaign_rows(r["campaign"]),
 }
+
+
+def sitl_rows(data: dict[str, Any]) -> list[Row]:
+    """Real PX4 SITL: lockstep speed beside the built-in autopilot, and the transfer."""
+    if "skipped" in data:
+        return [row("real PX4", "real PX4 SITL in lockstep", "skipped", limit=data["skipped"])]
+    real, builtin = data["speed"]["real PX4"], data["speed"]["built-in"]
+    share = real["share"]
+    met = real["speed_factor"] >= real["target"]
+    rows = [
+        row(
+            "real PX4 (60 s mission)",
+            "real PX4 SITL, medium (process, lockstep) / built-in medium",
+            f"{real['speed_factor']:.1f}x / {builtin['speed_factor']:.1f}x real time",
+            ratio=real["speed_factor"],
+            unit="x",
+            target=f">= {real['target']:g}x",
+            met=met,
+            limit=""
+            if met
+            else f"waiting for PX4's answers is {share['px4']:.0%} of the wall time: PX4's "
+            "modules run on the same 2 cores as everything else",
+        ),
+        row(
+            "real PX4 (60 s mission)",
+            "where real PX4's wall time goes: PX4 / world / bridge and the rest",
+            f"{share['px4']:.0%} / {share['world']:.0%} / {share['rest']:.0%}",
+        ),
+    ]
+    for level, t in data["transfer"].items():
+        rows.append(
+            row(
+                "transfer to real PX4",
+                f"built-in {level} vs real PX4, {t['missions']} missions: path distance",
+                f"mean {t['mean_distance_m']:.2f} m, max {t['max_distance_m']:.2f} m; time "
+                f"ratio {t['time_ratio_mean']:.2f}; same waypoints "
+                f"{t['same_waypoints']}/{t['missions']}",
+                ratio=t["mean_distance_m"],
+                unit="m",
+            )
+        )
+    return rows
 
 
 def campaign_rows(data: dict[str, Any]) -> list[Row]:

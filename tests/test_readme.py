@@ -10,6 +10,7 @@ from typing import Any
 import pytest
 
 import multicosim as mcs
+from pytest_multicosim.px4 import RealPX4
 
 README = Path(__file__).resolve().parents[1] / "README.md"
 
@@ -57,9 +58,23 @@ def test_pytest_listing_passes(pytester: pytest.Pytester) -> None:
 
 
 def test_px4_listing_runs() -> None:
-    result = _run("px4.Configuration([px4.Waypoint")["result"]
+    result = _run("simulator = px4.PX4(world")["result"]
     assert result.completed, result.reason
     assert [r.index for r in result.reached] == [0]  # the one waypoint
+
+
+def test_real_px4_listing_runs(px4_sitl: RealPX4) -> None:
+    if px4_sitl.binary is None:
+        pytest.skip("the listing runs a PX4 binary")
+    code = _block("px4.SITL(binary=").replace(
+        '"../shared/px4-sitl/bin/px4"', repr(px4_sitl.binary)
+    )
+    namespace: dict[str, Any] = {}
+    exec(compile(code, "README block with px4.SITL", "exec"), namespace)
+    result = namespace["result"]
+    assert result.completed, result.reason
+    assert result.firmware_version == "1.15.4"
+    assert [r.index for r in result.reached] == [0]
 
 
 def test_rover_listings_run() -> None:

@@ -109,6 +109,7 @@ class HilTcpBridge:
         self.answering = False  # PX4 has answered a step: from now on, strict lockstep
         self.steps = 0
         self.replies = 0
+        self.wait_s = 0.0  # wall time spent waiting for PX4's answers (what PX4 costs)
 
     @property
     def port(self) -> int:
@@ -250,8 +251,15 @@ class HilTcpBridge:
         return data
 
     def _await_controls(self, conn: socket.socket) -> HilActuatorControls | None:
+        start = time.monotonic()
+        try:
+            return self._receive_controls(conn, start)
+        finally:
+            self.wait_s += time.monotonic() - start
+
+    def _receive_controls(self, conn: socket.socket, start: float) -> HilActuatorControls | None:
         wait = self.lockstep_timeout if self.answering else BOOT_WAIT
-        deadline = time.monotonic() + wait
+        deadline = start + wait
         while True:
             left = deadline - time.monotonic()
             if left <= 0:
