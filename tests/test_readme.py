@@ -66,9 +66,7 @@ def test_px4_listing_runs() -> None:
 def test_real_px4_listing_runs(px4_sitl: RealPX4) -> None:
     if px4_sitl.binary is None:
         pytest.skip("the listing runs a PX4 binary")
-    code = _block("px4.SITL(binary=").replace(
-        '"../shared/px4-sitl/bin/px4"', repr(px4_sitl.binary)
-    )
+    code = _block("px4.SITL(binary=").replace('"../shared/px4-sitl/bin/px4"', repr(px4_sitl.binary))
     namespace: dict[str, Any] = {}
     exec(compile(code, "README block with px4.SITL", "exec"), namespace)
     result = namespace["result"]
