@@ -107,8 +107,13 @@ _reported: weakref.WeakSet[Any] = weakref.WeakSet()
 
 def crashed(watch: Watch, reason: str) -> NodeCrashedError:
     """A NodeCrashedError for ``watch`` (exit code, log tail), remembered as reported."""
-    _reported.add(watch)
+    mark_reported(watch)
     return NodeCrashedError(watch.name, reason, exit_code=watch.poll(), log_tail=watch.log_tail())
+
+
+def mark_reported(watch: object) -> None:
+    """Remember that ``watch``'s exit was raised already (stopping it will not raise it again)."""
+    _reported.add(getattr(watch, "handle", watch))
 
 
 # -- run directories and the sweep ----------------------------------------------------------

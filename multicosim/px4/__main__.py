@@ -51,13 +51,23 @@ def main(argv: list[str] | None = None) -> int:
         help="fly real PX4: its SITL binary (bin/px4, with etc/ beside bin/); PX4 keeps its "
         "own MAVLink ports (14550 GCS, 14540+instance API)",
     )
+    p.add_argument(
+        "--px4-image",
+        default=None,
+        help="fly real PX4 in a container of this image (multicosim images build --px4-dir)",
+    )
     p.add_argument("-v", "--verbose", action="store_true")
     launch = sub.add_parser(
         "launch", help="(in the PX4 image) prepare PX4's working directory and start PX4"
     )
     launch.add_argument("--instance", type=int, default=0)
     launch.add_argument("--sim-host", required=True, help="address of the simulator bridge")
-    launch.add_argument("--link", required=True, help="HOST:PORT of the ground-station link")
+    launch.add_argument(
+        "--link",
+        action="append",
+        default=None,
+        help="a MAVLink link LOCAL_PORT:HOST:PORT:MODE (repeat; none: PX4's own links)",
+    )
     launch.add_argument("--model", default="none_iris")
     launch.add_argument("--params", default="{}", help="PX4 parameters as a JSON object")
     args = parser.parse_args(argv)
@@ -73,7 +83,7 @@ def main(argv: list[str] | None = None) -> int:
     stop = threading.Event()
     # SIGTERM ends the run as cleanly as Ctrl-C does.
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
-    if args.px4_binary:
+    if args.px4_binary or args.px4_image:
         return _real(parser, args, stop)
     from ._sitl import Link, run_sitl
 
@@ -107,7 +117,7 @@ def _real(parser: argparse.ArgumentParser, args: argparse.Namespace, stop: threa
     from ._sitl import run_real_sitl
 
     try:
-        sitl = SITL(binary=args.px4_binary)
+        sitl = SITL(binary=args.px4_binary, image=None if args.px4_binary else args.px4_image)
     except ConfigurationError as exc:
         parser.error(str(exc))
 
@@ -134,15 +144,16 @@ def _real(parser: argparse.ArgumentParser, args: argparse.Namespace, stop: threa
 def _launch(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
     import json
 
-    from ._real import exec_in_container
+    from ._real import MavlinkLink, exec_in_container
 
-    host, _, port = args.link.rpartition(":")
-    if not host or not port.isdigit():
-        parser.error(f"--link {args.link!r}: expected HOST:PORT")
+    try:
+        links = [MavlinkLink.parse(text) for text in args.link] if args.link else None
+    except ValueError:
+        parser.error(f"--link {args.link!r}: expected LOCAL_PORT:HOST:PORT:MODE")
     exec_in_container(
         instance=args.instance,
         sim_host=args.sim_host,
-        link=(host, int(port)),
+        links=links,
         params=json.loads(args.params),
         model=args.model,
     )

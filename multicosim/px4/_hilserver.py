@@ -301,7 +301,7 @@ class HilTcpBridge:
         if watch is None:
             return NodeCrashedError(self.name, reason)
         # Marked as reported: stopping the process later does not raise the same crash again.
-        return crashed(getattr(watch, "handle", watch), reason)
+        return crashed(watch, reason)
 
     def _silent(self) -> MulticosimError:
         return NodeTimeoutError(

@@ -34,12 +34,13 @@ import os
 import re
 import socket
 import time
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 from .._errors import ConfigurationError, NodeStartError
 from .._interfaces import Node
+from .._local import mark_reported
 from ._config import Topics
 from ._hil import Wire
 from ._hilserver import SIM_PORT, HilTcpBridge
@@ -61,6 +62,10 @@ API_LOCAL_PORT = 14580
 """PX4 binds its API (offboard) link here, plus the instance number."""
 GCS_LOCAL_PORT = 18570
 """PX4 binds its ground-station link here, plus the instance number."""
+GCS_PORT = 14550
+"""Where PX4 SITL's ground-station link sends (QGroundControl listens here)."""
+API_PORT = 14540
+"""Where PX4 SITL's API link sends, plus the instance number (MAVSDK listens here)."""
 MAX_INSTANCE = 99
 CONTAINER_BUNDLE = "/opt/px4"
 CONTAINER_ROOTFS = "/px4"
@@ -241,6 +246,40 @@ def claim_instance(host: str = "127.0.0.1", *, gcs_link: bool = False) -> tuple[
 # -- the working directory ------------------------------------------------------------------
 
 
+class MavlinkLink(NamedTuple):
+    """One of PX4's MAVLink UDP links: bound on ``local_port``, sending to ``host:port``."""
+
+    local_port: int
+    host: str
+    port: int
+    mode: str = "onboard"
+
+    def command(self) -> str:
+        """The ``mavlink start`` line of PX4's start-up script for this link."""
+        return (
+            f"mavlink start -x -u {self.local_port} -r 4000000 -f -m {self.mode} "
+            f"-o {self.port} -t {self.host}"
+        )
+
+    def text(self) -> str:
+        """As one command-line word (``multicosim px4 launch --link``)."""
+        return f"{self.local_port}:{self.host}:{self.port}:{self.mode}"
+
+    @classmethod
+    def parse(cls, text: str) -> MavlinkLink:
+        """The link ``text()`` wrote."""
+        local, host, port, mode = text.split(":")
+        return cls(int(local), host, int(port), mode)
+
+
+def gateway_links(host: str, instance: int) -> list[MavlinkLink]:
+    """PX4's usual two links, sent to ``host`` (a container's way to the host's programs)."""
+    return [
+        MavlinkLink(GCS_LOCAL_PORT + instance, host, GCS_PORT, "normal"),
+        MavlinkLink(API_LOCAL_PORT + instance, host, API_PORT + instance, "onboard"),
+    ]
+
+
 def _param_value(value: float) -> str:
     return str(int(value)) if float(value).is_integer() and abs(value) < 2**31 else repr(value)
 
@@ -249,15 +288,13 @@ def prepare_rootfs(
     sitl: SITL,
     rootfs: Path,
     *,
-    instance: int,
     params: Mapping[str, float],
-    link: tuple[str, int] | None,
+    links: Sequence[MavlinkLink] | None,
 ) -> dict[str, str]:
     """Make PX4's working directory ``rootfs``; return the environment to start PX4 with.
 
-    ``link`` is where PX4's one MAVLink link sends (our ground station's host and port);
-    None keeps PX4's own links (standalone SITL: QGroundControl and MAVSDK on their usual
-    ports).
+    ``links`` replace PX4's own MAVLink links (to our ground station, say); None keeps them
+    (standalone SITL: QGroundControl and MAVSDK on their usual ports).
     """
     rootfs.mkdir(parents=True, exist_ok=True)
     bindir = rootfs / "bin"
@@ -273,13 +310,10 @@ def prepare_rootfs(
     lines = ["#!/bin/sh", "# multicosim: parameters for this run"]
     lines += [f"param set {name} {_param_value(value)}" for name, value in params.items()]
     (bindir / "px4-rc.params").write_text("\n".join(lines) + "\n")
-    if link is not None:
-        host, port = link
-        (bindir / "px4-rc.mavlink").write_text(
-            "#!/bin/sh\n# multicosim: one API link, to the simulation's ground station\n"
-            f"mavlink start -x -u {API_LOCAL_PORT + instance} -r 4000000 -f -m onboard "
-            f"-o {port} -t {host}\n"
-        )
+    if links is not None:
+        script = ["#!/bin/sh", "# multicosim: PX4's MAVLink links for this run"]
+        script += [link.command() for link in links]
+        (bindir / "px4-rc.mavlink").write_text("\n".join(script) + "\n")
     return {
         "PX4_SIM_MODEL": sitl.model,
         "PATH": f"{bindir}:{os.environ.get('PATH', '/usr/bin:/bin')}",
@@ -292,7 +326,12 @@ def launch_command(sitl: SITL, rootfs: Path, instance: int) -> list[str]:
 
 
 def exec_in_container(
-    *, instance: int, sim_host: str, link: tuple[str, int], params: Mapping[str, float], model: str
+    *,
+    instance: int,
+    sim_host: str,
+    links: Sequence[MavlinkLink] | None,
+    params: Mapping[str, float],
+    model: str,
 ) -> None:
     """Prepare PX4's working directory in its container and become PX4 (never returns).
 
@@ -300,7 +339,7 @@ def exec_in_container(
     """
     sitl = SITL(binary=f"{CONTAINER_BUNDLE}/bin/px4", model=model)
     rootfs = Path(CONTAINER_ROOTFS)
-    env = prepare_rootfs(sitl, rootfs, instance=instance, params=params, link=link)
+    env = prepare_rootfs(sitl, rootfs, params=params, links=links)
     env["PX4_SIM_HOST_ADDR"] = sim_host
     args = launch_command(sitl, rootfs, instance)
     os.chdir(rootfs)
@@ -308,24 +347,18 @@ def exec_in_container(
 
 
 def container_command(
-    *, instance: int, sim_host: str, link: tuple[str, int], params: Mapping[str, float], model: str
+    *,
+    instance: int,
+    sim_host: str,
+    links: Sequence[MavlinkLink],
+    params: Mapping[str, float],
+    model: str,
 ) -> list[str]:
     """The PX4 image's command for ``exec_in_container``'s arguments."""
-    return [
-        "multicosim",
-        "px4",
-        "launch",
-        "--instance",
-        str(instance),
-        "--sim-host",
-        sim_host,
-        "--link",
-        f"{link[0]}:{link[1]}",
-        "--model",
-        model,
-        "--params",
-        json.dumps(dict(params)),
-    ]
+    command = ["multicosim", "px4", "launch", "--instance", str(instance), "--sim-host", sim_host]
+    for link in links:
+        command += ["--link", link.text()]
+    return [*command, "--model", model, "--params", json.dumps(dict(params))]
 
 
 # -- starting it ----------------------------------------------------------------------------
@@ -337,6 +370,7 @@ def wait_connected(bridge: HilTcpBridge, process: Any, name: str, timeout: float
     while not bridge.poll_connection():
         code = process.poll()
         if code is not None:
+            mark_reported(process)  # this error says it; stopping the process need not again
             raise NodeStartError(
                 name,
                 "exited before it connected to its simulator",
@@ -446,7 +480,7 @@ def start_sitl(
         ).start(environment)
         group.add(f"{name}.hil", bridge_node)
         bridge = bridge_node.participant
-        link: tuple[str, int] | None = None
+        links: list[MavlinkLink] | None = gateway_links(host, instance) if container else None
         if uplink is not None:
             up = uplink
             # The bridge carries a ground station's UDP traffic to an autopilot's topics; here
@@ -456,15 +490,17 @@ def start_sitl(
                 f"{name}.link",
             ).start(environment)
             group.add(f"{name}.link", link_node)
-            link = (host, link_node.participant.local_ports[0])
+            port = link_node.participant.local_ports[0]
+            links = [MavlinkLink(API_LOCAL_PORT + instance, host, port)]
         process: Any
         if container:
+            assert links is not None
             process = _start_container(
-                sitl, environment, name=name, instance=instance, link=link, params=params
+                sitl, environment, name=name, instance=instance, links=links, params=params
             )
         else:
             rootfs = environment.run_dir / f"{name}-rootfs"
-            env = prepare_rootfs(sitl, rootfs, instance=instance, params=params, link=link)
+            env = prepare_rootfs(sitl, rootfs, params=params, links=links)
             group.rootfs = rootfs
             process = ProcessComponent(
                 launch_command(sitl, rootfs, instance),
@@ -512,16 +548,18 @@ def _start_container(
     *,
     name: str,
     instance: int,
-    link: tuple[str, int] | None,
+    links: Sequence[MavlinkLink],
     params: Mapping[str, float],
 ) -> Any:
     from ..docker import ContainerComponent
 
     assert sitl.image is not None
-    if link is None:
-        raise ConfigurationError("uplink", None, "a MAVLink topic for PX4 in a container")
     command = container_command(
-        instance=instance, sim_host=environment.gateway, link=link, params=params, model=sitl.model
+        instance=instance,
+        sim_host=environment.gateway,
+        links=links,
+        params=params,
+        model=sitl.model,
     )
     return ContainerComponent(
         sitl.image, command, name=name, ready="started", stop_timeout=10.0

@@ -185,8 +185,10 @@ def run_real_sitl(
     """Run real PX4 SITL on our MuJoCo world, paced at ``speed`` x real time, in lockstep.
 
     PX4 keeps its usual MAVLink links (QGroundControl on UDP 14550, MAVSDK on 14540 + its
-    instance number), so ground stations fly it as they fly PX4 with Gazebo. Runs until
-    ``duration`` simulated seconds, ``stop`` or Ctrl-C; returns the simulated time reached.
+    instance number), so ground stations fly it as they fly PX4 with Gazebo. With only an
+    image, PX4 runs in a container (instance 0) whose links reach those ports on this host.
+    Runs until ``duration`` simulated seconds, ``stop`` or Ctrl-C; returns the simulated
+    time reached.
     ``on_ready`` gets PX4's instance number once it is connected.
     """
     from ._simulator import PX4Component, sitl_period
@@ -194,7 +196,14 @@ def run_real_sitl(
     world = world or MuJoCo()
     world = dataclasses.replace(world, period=sitl_period(world))
     params = PX4Component(world, "medium", firmware=sitl).sitl_params()
-    sim = ProcessSimulator(seed=seed, realtime=speed)
+    sim: Any
+    if sitl.binary is None:
+        # In a container on a network of its own, PX4 sends its links to the host.
+        from ..docker import ContainerSimulator
+
+        sim = ContainerSimulator(seed=seed, realtime=speed)
+    else:
+        sim = ProcessSimulator(seed=seed, realtime=speed)
     sim.add(WorldComponent(world, "medium", process=False))
     px4_id = sim.add(_StandalonePX4(sitl, world, params))
     with sim.start() as simulation:

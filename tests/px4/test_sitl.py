@@ -347,11 +347,25 @@ def test_two_real_px4_fly_side_by_side(px4_sitl: RealPX4) -> None:
         assert result.completed, result.reason
 
 
-def test_standalone_sitl_serves_px4s_usual_ports(px4_sitl: RealPX4) -> None:
-    if px4_sitl.binary is None:
-        pytest.skip("the standalone SITL runs a PX4 binary")
-    command = [sys.executable, "-m", "multicosim", "px4", "sitl"]
-    command += ["--px4-binary", px4_sitl.binary, "--speed", "5", "--duration", "600"]
+@pytest.mark.xdist_group("px4-usual-ports")  # both listen where PX4 SITL sends: 14540
+@pytest.mark.parametrize("where", ["process", "container"])
+def test_standalone_sitl_serves_px4s_usual_ports(
+    px4_sitl: RealPX4, where: str, request: pytest.FixtureRequest
+) -> None:
+    command = [sys.executable, "-m", "multicosim", "px4", "sitl", "--speed", "5"]
+    if where == "process":
+        if px4_sitl.binary is None:
+            pytest.skip("the standalone SITL runs a PX4 binary as a process")
+        command += ["--px4-binary", px4_sitl.binary]
+    else:
+        request.getfixturevalue("mcs_runtime_image")  # an engine, and images up to date
+        image = px4_sitl.image
+        if image is None:
+            from multicosim.docker import build_px4
+
+            assert px4_sitl.binary is not None
+            image = build_px4(px4.SITL(binary=px4_sitl.binary).bundle)
+        command += ["--px4-image", image]
     proc = subprocess.Popen(
         command,
         stdout=subprocess.PIPE,
@@ -367,10 +381,11 @@ def test_standalone_sitl_serves_px4s_usual_ports(px4_sitl: RealPX4) -> None:
             line = proc.stdout.readline()
             assert line or proc.poll() is None, "the SITL exited before it was ready"
             match = re.search(r"instance (\d+) .*udpin://0.0.0.0:(\d+)", line)
+        # (a container's PX4 is instance 0 of its own network, and sends to this host)
         assert match, "the SITL never said it was ready"
         instance, port = int(match[1]), int(match[2])
         assert port == API_LOCAL_PORT - 40 + instance
-        gcs = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}", source_system=250)
+        gcs = mavutil.mavlink_connection(f"udpin:0.0.0.0:{port}", source_system=250)
         try:
             heartbeat = gcs.wait_heartbeat(timeout=60)
             assert heartbeat is not None
