@@ -1,4 +1,4 @@
-"""The PX4 scenario: the paper's mission API on a PX4-compatible autopilot and MuJoCo.
+"""The PX4 scenario: the paper's mission API on MuJoCo, flown by real PX4 or a built-in one.
 
 ::
 
@@ -11,6 +11,9 @@
             px4.Configuration([px4.Waypoint(lat=47.3980, lon=8.5460, alt=25.0)])
         )
     assert result.completed
+
+    # Real PX4 SITL (a px4_sitl_default build) flying the same world, in lockstep:
+    px4.PX4(world, fidelity="medium", firmware=px4.SITL(binary="build/px4_sitl_default/bin/px4"))
 
 ``import multicosim.px4`` loads neither MuJoCo nor pymavlink; they load when a simulation
 starts.

@@ -33,6 +33,7 @@ import math
 import os
 import re
 import socket
+import sys
 import time
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -526,7 +527,8 @@ def start_sitl(
 
 
 def _is_container_environment(environment: Any) -> bool:
-    docker = __import__("sys").modules.get("multicosim.docker._components")
+    # Without the docker backend loaded there is no container environment (and no SDK).
+    docker = sys.modules.get("multicosim.docker._components")
     return docker is not None and isinstance(environment, docker.ContainerEnvironment)
 
 
