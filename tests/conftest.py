@@ -35,3 +35,16 @@ def _children() -> set[int]:
         if ppid == me and state != "Z":
             found.add(int(entry))
     return found
+
+
+@pytest.fixture
+def pytester(pytester: pytest.Pytester, monkeypatch: pytest.MonkeyPatch) -> pytest.Pytester:
+    """pytest's pytester, its inner sessions kept from this run's real-firmware settings.
+
+    CI names the real firmware in the environment (``MCS_PX4_BINARY``, ...); an inner
+    session that checks its outcomes must see only what the test itself gives it.
+    """
+    for name in list(os.environ):
+        if name.startswith(("MCS_PX4_", "MCS_ARDUPILOT_")):
+            monkeypatch.delenv(name)
+    return pytester
