@@ -8,6 +8,11 @@ from collections.abc import Iterator
 
 import pytest
 
+# In-process pytester runs forget the modules first imported inside them; pyzmq's C extension
+# cannot be imported twice (its exceptions would stop matching), so the outer session imports
+# it before any inner run can.
+import multicosim._local  # noqa: F401
+
 
 @pytest.fixture
 def no_leaks() -> Iterator[None]:
