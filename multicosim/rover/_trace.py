@@ -70,9 +70,10 @@ class _Pose:
 def trace_options(world: WorldConfig) -> TraceOptions:
     """Types of every rover topic (remapped ones too) and the Foxglove channels.
 
-    ``mcs/location``, ``mcs/pose`` and ``mcs/path/truth`` follow what the world publishes (the
-    truth, when an injector corrupts the controller's copy); ``mcs/location/sensed`` and
-    ``mcs/path/sensed`` follow what the controller reads when the position is remapped.
+    ``mcs/location``, ``mcs/pose`` and ``mcs/path/measured`` follow what the world's position
+    sensor publishes (noisy from medium fidelity on; uncorrupted when an injector corrupts the
+    controller's copy); ``mcs/location/sensed`` and ``mcs/path/sensed`` follow what the
+    controller reads when the position is remapped.
     """
     types: dict[str, type[Any]] = {COMMAND_TOPIC: Command, ABORT_TOPIC: Abort}
     for name, topic in SENSOR_TOPICS.items():
@@ -81,7 +82,7 @@ def trace_options(world: WorldConfig) -> TraceOptions:
     converters: list[Any] = [
         location_fix(position, _fix),
         _Pose(position, world.topic("imu", SENSOR_TOPICS["imu"])),
-        local_path(position, _enu, label="truth"),
+        local_path(position, _enu, label="measured"),
     ]
     if position != SENSOR_TOPICS["position"]:
         sensed = SENSOR_TOPICS["position"]

@@ -25,9 +25,15 @@ if TYPE_CHECKING:
 
 __all__ = ["figure", "plot_trace"]
 
-_STYLES = {"truth": ("tab:green", "-"), "estimate": ("tab:blue", "-"), "sensed": ("tab:blue", "-")}
+_STYLES = {
+    "truth": ("tab:green", "-"),
+    "measured": ("tab:green", "-"),
+    "estimate": ("tab:blue", "-"),
+    "sensed": ("tab:blue", "-"),
+}
 _DESCRIPTIONS = {
     "truth": "truth (the world's position)",
+    "measured": "measured (the world's position sensor)",
     "estimate": "estimate (what the vehicle believed)",
     "sensed": "sensed (what the controller read)",
 }
@@ -179,9 +185,10 @@ def figure(data: TraceData, title: str = "") -> Figure:
         _mark(ax_rob, first, worst)
         ax_rob.set_title(f"robustness of {head.get('formula')}: {_text(rho)}")
         ax_rob.legend(loc="best", fontsize=8)
+        ax_rob.set_xlabel("time (s)")
     else:
-        ax_rob.set_title("robustness (no requirement evaluated)")
-    ax_rob.set_xlabel("time (s)")
+        ax_rob.set_axis_off()
+        ax_rob.text(0.5, 0.5, "no requirement evaluated", ha="center", va="center")
     fig.tight_layout()
     return fig
 

@@ -471,6 +471,25 @@ def test_keep_traces_none_saves_nothing(pytester: pytest.Pytester) -> None:
     assert not (pytester.path / "arts").exists()
 
 
+@pytest.mark.usefixtures("programs")
+def test_artifacts_are_kept_per_seed_and_never_stale(pytester: pytest.Pytester) -> None:
+    pytester.makepyfile(test_component=COMPONENT_FAILS)
+    pytester.runpytest("--mcs-artifacts=arts", "--mcs-seed=1").assert_outcomes(failed=1)
+    test_dir = pytester.path / "arts" / "test_component.py_test_component_output"
+    first = test_dir / "seed-1-process"
+    assert {"chatty.log", "trace.mcap", "trace.layout.json"} <= {p.name for p in first.iterdir()}
+    stale = first / "left-by-an-earlier-run.mcap"
+    stale.write_text("old")
+    # A replay with another seed writes beside the original failure's files.
+    pytester.runpytest("--mcs-artifacts=arts", "--mcs-seed=2").assert_outcomes(failed=1)
+    assert (test_dir / "seed-2-process" / "trace.mcap").is_file()
+    assert stale.exists()
+    # The same seed again replaces what the earlier run left: nothing stale stays beside it.
+    pytester.runpytest("--mcs-artifacts=arts", "--mcs-seed=1").assert_outcomes(failed=1)
+    assert not stale.exists()
+    assert (first / "trace.mcap").is_file()
+
+
 @pytest.mark.parametrize(("keep", "kept"), [("all", True), ("failed", False)])
 @pytest.mark.usefixtures("programs")
 def test_keep_traces_of_passing_tests(pytester: pytest.Pytester, keep: str, kept: bool) -> None:
