@@ -664,10 +664,11 @@ def pytest_runtest_protocol(
 
 def _save_trace(
     item: pytest.Item, call: pytest.CallInfo[None], dest: Path, replay: str
-) -> list[Path]:
+) -> tuple[list[Path], str | None]:
+    """Save the test's traces; return the written paths, or why nothing could be written."""
     test_trace = item.stash.get(trace_key, None)
     if test_trace is None:
-        return []
+        return [], None
     from multicosim import trace
 
     example = None
@@ -677,10 +678,10 @@ def _save_trace(
     test_trace.detach()
     try:
         saved: list[Path] = test_trace.save(dest, failing_example=example, replay=replay)
-    except MulticosimError as exc:
+    except Exception as exc:  # a trace is a diagnosis aid: never turn a report into a crash
         log.warning("could not save the trace of %s: %s", item.nodeid, exc)
-        return []
-    return saved
+        return [], f"{type(exc).__name__}: {exc}"
+    return saved, None
 
 
 def _slug(nodeid: str) -> str:
@@ -723,16 +724,19 @@ def pytest_runtest_makereport(
             passed_view = item.stash.get(_view_key, None)
             if passed_view is not None:
                 _save_logs(passed_view, dest)
-            saved = _save_trace(item, call, dest, replay)
+            saved, _ = _save_trace(item, call, dest, replay)
             _properties(item, settings, replay, saved)
         return report
+    problem = None
     if keep and report.when in ("setup", "call"):
-        saved = _save_trace(item, call, dest, replay)
+        saved, problem = _save_trace(item, call, dest, replay)
     # JUnit XML (and other report readers) get the same facts as properties; they are read
     # from the item when the teardown report is made.
     _properties(item, settings, replay, saved)
     lines = [f"verdict: {_verdict(item, call)}", f"replay: {replay}"]
     lines.extend(f"{_KINDS.get(path.suffix, 'file')}: {path}" for path in saved)
+    if problem is not None:
+        lines.append(f"trace: not saved ({problem})")
     mcap = next((p for p in saved if p.suffix == ".mcap"), None)
     layout = next((p for p in saved if p.suffix == ".json"), None)
     if mcap is not None and layout is not None:

@@ -91,8 +91,9 @@ STREAM_DEFAULTS = {  # message: period (s); None for "at the telemetry rate"
     "HOME_POSITION": 2.0,
     "MISSION_CURRENT": 1.0,
     "GPS_RAW_INT": 0.2,
-    # What the position controller is asked for, to set beside what the vehicle does.
-    "POSITION_TARGET_LOCAL_NED": 0.2,
+    # What the position controller is asked for, to set beside what the vehicle does; PX4's
+    # rate on a normal link (a ground station raises it with SET_MESSAGE_INTERVAL).
+    "POSITION_TARGET_LOCAL_NED": 1.0,
     # GLOBAL_POSITION_INT last: a ground station that samples on it has the others fresh.
     "LOCAL_POSITION_NED": None,
     "ATTITUDE": None,
@@ -1115,17 +1116,17 @@ class Autopilot:
         seq = min(self.seq, max(len(self.mission) - 1, 0))
         return self._d.MAVLink_mission_current_message(seq, len(self.mission), state, in_mission)
 
-    def _msg_position_target_local_ned(self) -> Any:
+    def _msg_position_target_local_ned(self) -> bytes:
         pos, vel = self._pos_sp, self._vel_sp
         mask = TARGET_IGNORE_ACCEL | TARGET_IGNORE_YAW_RATE
         if pos is None:
-            pos, mask = (math.nan,) * 3, mask | TARGET_IGNORE_POSITION
+            pos, mask = _NANS3, mask | TARGET_IGNORE_POSITION
         if vel is None:
-            vel, mask = (math.nan,) * 3, mask | TARGET_IGNORE_VELOCITY
-        return self._d.MAVLink_position_target_local_ned_message(
+            vel, mask = _NANS3, mask | TARGET_IGNORE_VELOCITY
+        return pack_scalar(
+            self.mav,
+            self._d.MAVLink_position_target_local_ned_message,
             round(self._now * 1000),
-            FRAME_LOCAL_NED,
-            mask,
             *pos,
             *vel,
             0.0,
@@ -1133,6 +1134,8 @@ class Autopilot:
             0.0,
             self._yaw_sp if self.armed else math.nan,
             0.0,
+            mask,
+            FRAME_LOCAL_NED,
         )
 
     def _msg_gps_raw_int(self) -> Any:
@@ -1227,6 +1230,7 @@ class Autopilot:
 
 
 _ZEROS12 = [0.0] * 12
+_NANS3 = (math.nan, math.nan, math.nan)
 _ZEROS16 = [0.0] * 16
 
 

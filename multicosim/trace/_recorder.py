@@ -232,8 +232,8 @@ class Recorder:
             return None
         return write_tlog(Path(path), frames)
 
-    def save_layout(self, path: str | Path, trace: str | Path) -> Path:
-        """Write a Foxglove layout for the trace last saved (to ``trace``) at ``path``."""
+    def save_layout(self, path: str | Path) -> Path:
+        """Write a Foxglove layout, for the trace this recorder last saved, at ``path``."""
         from ._layout import layout
 
         path = Path(path)

@@ -129,7 +129,7 @@ class TestTrace:
             name = "trace" if len(recorders) == 1 else f"trace-{index}"
             path = recorder.save(directory / f"{name}.mcap", **metadata)
             written.append(path)
-            written.append(recorder.save_layout(directory / f"{name}.layout.json", path))
+            written.append(recorder.save_layout(directory / f"{name}.layout.json"))
             tlog = recorder.save_tlog(directory / f"{name}.tlog")
             if tlog is not None:
                 written.append(tlog)
