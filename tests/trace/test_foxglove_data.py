@@ -14,21 +14,15 @@ from multicosim.trace import DIALECT, foxglove_schema, message_path
 from multicosim.trace._tlog import split_frames
 
 
-def rotate(q: tuple[float, ...], v: tuple[float, float, float]) -> tuple[float, ...]:
+def rotate(q: tuple[float, ...], v: tuple[float, ...]) -> tuple[float, ...]:
+    """``v`` rotated by the unit quaternion ``q`` = (w, x, y, z), through its rotation matrix."""
     w, x, y, z = q
-    qv = (0.0, *v)
-
-    def mul(a: tuple[float, ...], b: tuple[float, ...]) -> tuple[float, ...]:
-        aw, ax, ay, az = a
-        bw, bx, by, bz = b
-        return (
-            aw * bw - ax * bx - ay * by - az * bz,
-            aw * bx + ax * bw + ay * bz - az * by,
-            aw * by - ax * bz + ay * bw + az * bx,
-            aw * bz + ax * by - ay * bx + az * bw,
-        )
-
-    return mul(mul(q, qv), (w, -x, -y, -z))[1:]
+    matrix = (
+        (1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)),
+        (2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)),
+        (2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)),
+    )
+    return tuple(math.fsum(r * c for r, c in zip(row, v, strict=True)) for row in matrix)
 
 
 @pytest.mark.parametrize(
