@@ -77,8 +77,9 @@ def layout(
     for topic, schema in channels.items():
         by_schema.setdefault(schema, []).append(topic)
     configs: dict[str, Any] = {}
-    left: list[str] = []
-    right: list[str] = []
+    left: list[str] = []  # where: map and 3D
+    right: list[str] = []  # why: the requirement's signals, its margin, the log
+    scenario: list[str] = []  # the scenario's own plots (setpoints beside values, ...)
 
     fixes = by_schema.get("foxglove.LocationFix", [])
     shapes = by_schema.get("foxglove.GeoJSON", [])
@@ -119,20 +120,22 @@ def layout(
         )
         right.append("Plot!margin")
     for index, (title, values) in enumerate(plots):
-        shown = [(v, v) for v in values if v.split(".", 1)[0].strip('"') in channels]
+        shown = [
+            (v, v.rsplit("/", 1)[-1]) for v in values if v.split(".", 1)[0].strip('"') in channels
+        ]
         if shown:
             configs[f"Plot!scenario{index}"] = _plot(title, shown)
-            right.append(f"Plot!scenario{index}")
+            scenario.append(f"Plot!scenario{index}")
     logs = by_schema.get("foxglove.Log", [])
     if logs:
         configs["RosOut!mcs"] = {"searchTerms": [], "minLogLevel": 1, "topicToRender": logs[0]}
         right.append("RosOut!mcs")
-    if not left and not right:
+    if not left and not right and not scenario:
         first = next(iter(sorted(channels)), "")
         configs["RawMessages!mcs"] = {"topicPath": message_path(first) if first else ""}
         right.append("RawMessages!mcs")
 
-    columns = [c for c in (left, right) if c]
+    columns = [c for c in (left, right, scenario) if c]
     tree = _split([_split(c, "column") for c in columns], "row")
     return {
         "configById": configs,
