@@ -109,6 +109,18 @@ class Evaluation:
         """Whether the requirement holds (robustness >= 0)."""
         return self.robustness >= 0.0
 
+    @property
+    def first_violation(self) -> float | None:
+        """The first instant the deciding predicate's margin is negative (None if it holds).
+
+        For ``always`` this is where the trajectory first leaves the allowed region; the
+        worst time is where it is furthest out.
+        """
+        if self.satisfied:
+            return None
+        first = next((t for t, margin in self.series if margin < 0), None)
+        return self.worst_time if first is None else first
+
     def explain(self) -> str:
         """A one-paragraph account: verdict, robustness, worst time and values there."""
         verdict = "holds" if self.satisfied else "is violated"
@@ -355,6 +367,7 @@ class Requirement:
 
     def check(self, trajectory: object, *, times: ArrayLike | None = None) -> Evaluation:
         """Evaluate; raise RequirementViolation (an AssertionError) when violated."""
+        __tracebackhide__ = True  # a failing test's report shows the verdict, not this frame
         evaluation = self.evaluate(trajectory, times=times)
         if not evaluation.satisfied:
             raise RequirementViolation(evaluation)
@@ -439,6 +452,7 @@ def assert_satisfied(
     requirement: Requirement | str, trajectory: object, *, times: ArrayLike | None = None
 ) -> Evaluation:
     """Fail (RequirementViolation) with robustness, worst time and values if violated."""
+    __tracebackhide__ = True
     if isinstance(requirement, str):
         requirement = Requirement(requirement)
     return requirement.check(trajectory, times=times)

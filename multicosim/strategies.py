@@ -311,6 +311,7 @@ class FreshSimulations:
     @contextlib.contextmanager
     def __call__(self, factory: Callable[..., Any], /, **kwargs: Any) -> Iterator[Any]:
         """Build, start, yield and stop one simulation (see the class docstring)."""
+        __tracebackhide__ = True  # a failure in the block is the test's, not this frame's
         from . import trace
 
         fidelity, seed = self.settings()

@@ -1,7 +1,11 @@
 """The multicosim pytest plugin: options, the ``fidelity`` marker, core fixtures, reports.
 
-Installed packages activate it through the ``pytest11`` entry point. Options live in the
-``multicosim`` group, each with an ini twin (``mcs_fidelity = low,medium`` in ``pytest.ini``).
+Installed packages load it through the ``pytest11`` entry point, but it acts only for tests
+that use its fixtures (``mcs_*`` and the scenario libraries') or the ``fidelity`` marker, or
+for every test when an ``--mcs-*`` option is given: only then does it sweep what killed runs
+left (processes, and containers where Docker is installed), print its header line, record
+traces and add its report section and JUnit properties. Options live in the ``multicosim``
+group, each with an ini twin (``mcs_fidelity = low,medium`` in ``pytest.ini``).
 """
 
 from __future__ import annotations
@@ -66,6 +70,28 @@ class Settings:
 
 settings_key = pytest.StashKey[Settings]()
 registry_key = pytest.StashKey["SimulationRegistry"]()
+activity_key = pytest.StashKey["_Activity"]()
+# Every option of the group: giving any of them on the command line (or in addopts) makes
+# the plugin act for every test of the session.
+OPTION_DESTS = (
+    "mcs_fidelity",
+    "mcs_backend",
+    "mcs_seed",
+    "mcs_artifacts",
+    "mcs_keep_traces",
+    "mcs_px4_image",
+    "mcs_px4_binary",
+    "mcs_ray",
+)
+
+
+@dataclasses.dataclass
+class _Activity:
+    """Whether the plugin acts in this session, and what it has done once already."""
+
+    explicit: bool  # an --mcs-* option was given: act for every test
+    fixtures: frozenset[str]  # the fixtures we provide (a test using one is ours)
+    swept: bool = False
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:
@@ -207,8 +233,37 @@ def pytest_configure(config: pytest.Config) -> None:
             config.pluginmanager.import_plugin(name)
     registry = SimulationRegistry()
     config.stash[registry_key] = registry
+    config.stash[activity_key] = _Activity(
+        explicit=any(config.getoption(dest) is not None for dest in OPTION_DESTS),
+        fixtures=_our_fixtures(),
+    )
     # Safety net for interpreter exits that bypass fixture teardown.
     atexit.register(registry.stop_all)
+
+
+def _our_fixtures() -> frozenset[str]:
+    """Names of the fixtures this plugin and its fixture libraries define."""
+    import importlib
+    import sys
+
+    modules = [sys.modules[__name__]]
+    for name in FIXTURE_LIBRARIES:
+        if importlib.util.find_spec(name) is not None:
+            modules.append(importlib.import_module(name))
+    found: set[str] = set()
+    for module in modules:
+        for attr, value in vars(module).items():
+            if type(value).__name__ == "FixtureFunctionDefinition":
+                found.add(getattr(value, "name", None) or attr)
+    return frozenset(found)
+
+
+def acts_for(item: pytest.Item) -> bool:
+    """Whether the plugin acts for ``item`` (our fixtures or marker, or an option given)."""
+    activity = item.config.stash[activity_key]
+    if activity.explicit or item.get_closest_marker("fidelity") is not None:
+        return True
+    return not activity.fixtures.isdisjoint(getattr(item, "fixturenames", ()))
 
 
 def pytest_unconfigure(config: pytest.Config) -> None:
@@ -220,6 +275,17 @@ def pytest_unconfigure(config: pytest.Config) -> None:
 
 
 def pytest_sessionstart(session: pytest.Session) -> None:
+    activity = session.config.stash[activity_key]
+    if activity.explicit:
+        _sweep_once(activity)
+    # Otherwise the first test that uses our fixtures or marker sweeps (pytest_runtest_protocol):
+    # a session of unrelated tests never looks for processes or contacts the Docker engine.
+
+
+def _sweep_once(activity: _Activity) -> None:
+    if activity.swept:
+        return
+    activity.swept = True
     from multicosim._local import sweep_stale_runs
 
     killed = sweep_stale_runs()
@@ -232,7 +298,8 @@ def pytest_sessionstart(session: pytest.Session) -> None:
 def pytest_sessionfinish(session: pytest.Session) -> None:
     # Only this session's leftovers: under xdist another worker may still be running a test
     # that looks at what a killed run left.
-    if not _nested():
+    activity = session.config.stash.get(activity_key, None)
+    if activity is not None and activity.swept and not _nested():
         _sweep_docker(only_current_process=True)
 
 
@@ -252,12 +319,25 @@ def _sweep_docker(*, only_current_process: bool = False) -> None:
         log.warning("docker sweep: %s", report.summary())
 
 
-def pytest_report_header(config: pytest.Config) -> str:
+def _header(config: pytest.Config) -> str:
     s = config.stash[settings_key]
     return (
         f"multicosim: fidelity={','.join(s.fidelity)} backend={s.backend} seed={s.seed} "
         f"keep-traces={s.keep_traces} artifacts={s.artifacts}"
     )
+
+
+def pytest_report_header(config: pytest.Config) -> str | None:
+    return _header(config) if config.stash[activity_key].explicit else None
+
+
+def pytest_report_collectionfinish(
+    config: pytest.Config, start_path: Path, items: list[pytest.Item]
+) -> str | None:
+    # Without an option the header waits for collection: only a suite with tests of ours shows it.
+    if config.stash[activity_key].explicit or not any(acts_for(item) for item in items):
+        return None
+    return _header(config)
 
 
 def pytest_generate_tests(metafunc: pytest.Metafunc) -> None:
@@ -524,6 +604,7 @@ def mcs_fresh_simulation() -> Any:
 # -- traces and reports ---------------------------------------------------------------------
 
 trace_key = pytest.StashKey[Any]()
+dest_key = pytest.StashKey[Path]()
 
 
 def _fidelity_of(item: pytest.Item) -> str | None:
@@ -531,11 +612,42 @@ def _fidelity_of(item: pytest.Item) -> str | None:
     return None if callspec is None else callspec.params.get("mcs_fidelity")
 
 
+def artifacts_dir(settings: Settings, item: pytest.Item) -> Path:
+    """Where the artifacts of ``item`` go: one directory per test, seed and backend.
+
+    A replay with another seed (or backend) writes beside the original failure's files, not
+    over them.
+    """
+    return settings.artifacts / _slug(item.nodeid) / f"seed-{settings.seed}-{settings.backend}"
+
+
+def replay_command(settings: Settings, item: pytest.Item) -> str:
+    """The command that runs ``item`` again with the same seed, fidelity and backend.
+
+    The test is named by its absolute path, so the command works from any directory.
+    """
+    _, sep, rest = item.nodeid.partition("::")
+    target = str(item.path) + (sep + rest if sep else "")
+    # Quoted for a POSIX shell: parametrized ids may hold quotes, spaces or brackets.
+    return f"pytest {shlex.quote(target)} {settings.replay_args(_fidelity_of(item))}"
+
+
 @pytest.hookimpl(wrapper=True)
-def pytest_runtest_call(item: pytest.Item) -> Generator[None, None, None]:
+def pytest_runtest_protocol(
+    item: pytest.Item, nextitem: pytest.Item | None
+) -> Generator[None, object, object]:
+    # From the first fixture's setup to the last teardown: simulations that fixtures start
+    # are recorded too.
+    if not acts_for(item):
+        return (yield)
+    _sweep_once(item.config.stash[activity_key])
     from multicosim import trace
 
     settings = item.config.stash[settings_key]
+    dest = artifacts_dir(settings, item)
+    # What an earlier run of this test left must not pass for this run's.
+    shutil.rmtree(dest, ignore_errors=True)
+    item.stash[dest_key] = dest
     test_trace = trace.TestTrace(
         metadata={
             "test": item.nodeid,
@@ -552,25 +664,45 @@ def pytest_runtest_call(item: pytest.Item) -> Generator[None, None, None]:
 
 def _save_trace(
     item: pytest.Item, call: pytest.CallInfo[None], dest: Path, replay: str
-) -> list[Path]:
+) -> tuple[list[Path], str | None]:
+    """Save the test's traces; return the written paths, or why nothing could be written."""
     test_trace = item.stash.get(trace_key, None)
     if test_trace is None:
-        return []
+        return [], None
     from multicosim import trace
 
     example = None
     if call.excinfo is not None:
         example = trace.falsifying_example(call.excinfo.value)
+    # The recording ends with the call: what teardown routes is not part of the failure.
+    test_trace.detach()
     try:
         saved: list[Path] = test_trace.save(dest, failing_example=example, replay=replay)
-    except MulticosimError as exc:
+    except Exception as exc:  # a trace is a diagnosis aid: never turn a report into a crash
         log.warning("could not save the trace of %s: %s", item.nodeid, exc)
-        return []
-    return saved
+        return [], f"{type(exc).__name__}: {exc}"
+    return saved, None
 
 
 def _slug(nodeid: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", nodeid).strip("_")[:150]
+
+
+_KINDS = {".mcap": "trace", ".json": "layout", ".tlog": "mavlink", ".png": "plot"}
+
+
+def _verdict(item: pytest.Item, call: pytest.CallInfo[None]) -> str:
+    """One line: what failed, and for a requirement where it was first violated."""
+    if call.excinfo is None:
+        return "failed"
+    text = call.excinfo.exconly().strip().splitlines()
+    line = text[0] if text else call.excinfo.typename
+    test_trace = item.stash.get(trace_key, None)
+    evaluation = getattr(test_trace, "evaluation", None)
+    first = getattr(evaluation, "first_violation", None)
+    if first is not None:
+        line += f"; first violated at t={first:.6g} s"
+    return line
 
 
 @pytest.hookimpl(wrapper=True)
@@ -578,36 +710,57 @@ def pytest_runtest_makereport(
     item: pytest.Item, call: pytest.CallInfo[None]
 ) -> Generator[None, pytest.TestReport, pytest.TestReport]:
     report: pytest.TestReport = yield
+    if not acts_for(item):
+        return report
     settings = item.config.stash[settings_key]
     fidelity = _fidelity_of(item)
-    # Quoted for a POSIX shell: parametrized ids may hold quotes, spaces or brackets.
-    replay = f"pytest {shlex.quote(item.nodeid)} {settings.replay_args(fidelity)}"
-    dest = settings.artifacts / _slug(item.nodeid)
+    replay = replay_command(settings, item)
+    dest = item.stash.get(dest_key, None) or artifacts_dir(settings, item)
+    keep = settings.keep_traces != "none"
+    saved: list[Path] = []
     if not report.failed:
         # --mcs-keep-traces=all keeps what passing tests left too (without a report section).
-        passed_view = item.stash.get(_view_key, None)
         if settings.keep_traces == "all" and report.when == "call":
+            passed_view = item.stash.get(_view_key, None)
             if passed_view is not None:
                 _save_logs(passed_view, dest)
-            _save_trace(item, call, dest, replay)
+            saved, _ = _save_trace(item, call, dest, replay)
+            _properties(item, settings, replay, saved)
         return report
-    lines = [
+    problem = None
+    if keep and report.when in ("setup", "call"):
+        saved, problem = _save_trace(item, call, dest, replay)
+    # JUnit XML (and other report readers) get the same facts as properties; they are read
+    # from the item when the teardown report is made.
+    _properties(item, settings, replay, saved)
+    lines = [f"verdict: {_verdict(item, call)}", f"replay: {replay}"]
+    lines.extend(f"{_KINDS.get(path.suffix, 'file')}: {path}" for path in saved)
+    if problem is not None:
+        lines.append(f"trace: not saved ({problem})")
+    mcap = next((p for p in saved if p.suffix == ".mcap"), None)
+    layout = next((p for p in saved if p.suffix == ".json"), None)
+    if mcap is not None and layout is not None:
+        lines.append(
+            f"open: Foxglove (app or web) > Open local file... {mcap.name}, then "
+            f"Layout > Import from file... {layout.name}"
+        )
+    lines.append(
         f"seed {settings.seed}, fidelity {fidelity or ','.join(settings.fidelity)}, "
-        f"backend {settings.backend}",
-        f"replay: {replay}",
-    ]
-    if settings.keep_traces != "none" and report.when == "call":
-        for path in _save_trace(item, call, dest, replay):
-            kind = "plot" if path.suffix == ".png" else "trace"
-            lines.append(f"{kind}: {path}")
+        f"backend {settings.backend}"
+    )
     view = item.stash.get(_view_key, None)
-    if view is not None and settings.keep_traces != "none":
-        saved = _save_logs(view, dest)
-        for name, (path, tail) in saved.items():
+    if view is not None and keep:
+        for name, (path, tail) in _save_logs(view, dest).items():
             lines.append(f"--- {name}: last output (full log: {path}) ---")
             lines.append(tail)
     report.sections.append(("multicosim", "\n".join(lines)))
     return report
+
+
+def _properties(item: pytest.Item, settings: Settings, replay: str, saved: list[Path]) -> None:
+    found = [("mcs_seed", str(settings.seed)), ("mcs_replay", replay)]
+    found.extend((f"mcs_{_KINDS.get(p.suffix, 'file')}", str(p)) for p in saved)
+    item.user_properties.extend(p for p in found if p not in item.user_properties)
 
 
 def _save_logs(view: _TestSimulations, dest: Path) -> dict[str, tuple[Path, str]]:

@@ -150,25 +150,31 @@ def test_a_failing_spoof_property_leaves_a_trace_and_a_plot(pytester: pytest.Pyt
             "*: test_spoofs_keep_tracking(",
             "*spoof=build(5, 0, 3),",  # shrunk: 5 m north from 3 s
             "replay: pytest *test_spoof.py::test_spoofs_keep_tracking* --mcs-seed=0*",
-            "trace: */artifacts/test_spoof.py_test_spoofs_keep_tracking_low/trace.mcap",
-            "plot: */artifacts/test_spoof.py_test_spoofs_keep_tracking_low/trace.png",
+            "trace: */test_spoof.py_test_spoofs_keep_tracking_low/seed-0-process/trace.mcap",
+            "plot: */test_spoof.py_test_spoofs_keep_tracking_low/seed-0-process/trace.png",
         ]
     )
-    directory = pytester.path / "artifacts" / "test_spoof.py_test_spoofs_keep_tracking_low"
+    directory = (
+        pytester.path
+        / "artifacts"
+        / "test_spoof.py_test_spoofs_keep_tracking_low"
+        / "seed-0-process"
+    )
     assert (directory / "trace.png").read_bytes().startswith(b"\x89PNG")
     trace = read_trace(directory / "trace.mcap")
     expected = {
         "px4/gps",  # what the world measured
         "px4/gps/attacked",  # what the autopilot read
         "px4/truth",
-        "mcs/location",
-        "mcs/pose",
+        "px4/location/truth",
+        "px4/location/estimate",
+        "px4/pose",
         "mcs/trajectory",
         "mcs/robustness",
     }
     assert expected <= set(trace.channels)
-    assert trace.channels["mcs/location"].schema_name == "foxglove.LocationFix"
-    assert trace.channels["mcs/pose"].schema_name == "foxglove.PoseInFrame"
+    assert trace.channels["px4/location/truth"].schema_name == "foxglove.LocationFix"
+    assert trace.channels["px4/pose"].schema_name == "foxglove.PoseInFrame"
     info = trace.info
     assert info["fidelity"] == "low"
     assert info["seed"] == "0"
@@ -178,7 +184,7 @@ def test_a_failing_spoof_property_leaves_a_trace_and_a_plot(pytester: pytest.Pyt
     raw = trace.topic("px4/gps")[-1].data
     spoofed = trace.topic("px4/gps/attacked")[-1].data
     assert raw != spoofed
-    # The map channel follows the truth, which the spoof pulled away from the estimate.
-    last_fix = trace.topic("mcs/location")[-1].data
+    # The truth track shows where the spoof pulled the vehicle, away from its estimate.
+    last_fix = trace.topic("px4/location/truth")[-1].data
     north, east = PROJ.project(last_fix["latitude"], last_fix["longitude"])
     assert math.hypot(north, east - 40.0) > LIMIT - 1.0

@@ -2,11 +2,18 @@
 
 from __future__ import annotations
 
+import importlib
 import os
 import signal
 from collections.abc import Iterator
 
 import pytest
+
+# In-process pytester runs forget the modules first imported inside them, and C extensions
+# cannot be imported twice in a process (numpy refuses; pyzmq's exceptions stop matching): the
+# outer session imports the ones inner runs use before any inner run can.
+for _name in ("numpy", "zmq", "mujoco", "matplotlib.figure", "docker", "multicosim._local"):
+    importlib.import_module(_name)
 
 
 @pytest.fixture

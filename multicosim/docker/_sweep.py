@@ -1,7 +1,8 @@
 """Remove the containers and networks of runs whose host process is gone.
 
 Safe to call anywhere: without the Docker SDK or a running engine it does nothing and says
-why. The pytest plugin calls it at the start and the end of every session.
+why. The pytest plugin calls it before the first test it acts for and at the end of that
+session.
 """
 
 from __future__ import annotations

@@ -65,6 +65,10 @@ MISSION_STATE_NO_MISSION, MISSION_STATE_NOT_STARTED = 1, 2
 MISSION_STATE_ACTIVE, MISSION_STATE_PAUSED, MISSION_STATE_COMPLETE = 3, 4, 5
 FRAME_GLOBAL, FRAME_GLOBAL_REL, FRAME_GLOBAL_INT, FRAME_GLOBAL_REL_INT = 0, 3, 5, 6
 FRAME_MISSION = 2
+FRAME_LOCAL_NED = 1
+# POSITION_TARGET_TYPEMASK bits: what a POSITION_TARGET_LOCAL_NED leaves unset.
+TARGET_IGNORE_POSITION, TARGET_IGNORE_VELOCITY = 1 | 2 | 4, 8 | 16 | 32
+TARGET_IGNORE_ACCEL, TARGET_IGNORE_YAW_RATE = 64 | 128 | 256, 2048
 CMD_WAYPOINT, CMD_LOITER_UNLIM, CMD_RTL, CMD_LAND, CMD_TAKEOFF = 16, 17, 20, 21, 22
 CMD_DO_CHANGE_SPEED, CMD_DO_SET_MODE, CMD_MISSION_START = 178, 176, 300
 CMD_ARM_DISARM, CMD_GET_HOME, CMD_SET_MSG_INTERVAL = 400, 410, 511
@@ -87,6 +91,9 @@ STREAM_DEFAULTS = {  # message: period (s); None for "at the telemetry rate"
     "HOME_POSITION": 2.0,
     "MISSION_CURRENT": 1.0,
     "GPS_RAW_INT": 0.2,
+    # What the position controller is asked for, to set beside what the vehicle does; PX4's
+    # rate on a normal link (a ground station raises it with SET_MESSAGE_INTERVAL).
+    "POSITION_TARGET_LOCAL_NED": 1.0,
     # GLOBAL_POSITION_INT last: a ground station that samples on it has the others fresh.
     "LOCAL_POSITION_NED": None,
     "ATTITUDE": None,
@@ -175,6 +182,9 @@ class Autopilot:
         self._cruise: float | None = None
         self._yaw_sp = 0.0
         self._vz_sp = 0.0
+        # The last position and velocity setpoints (local NED), for POSITION_TARGET_LOCAL_NED.
+        self._pos_sp: tuple[float, float, float] | None = None
+        self._vel_sp: tuple[float, float, float] | None = None
         self._reached_at: float | None = None
         # Ground-station link state.
         self._gcs = (255, 190)
@@ -600,8 +610,10 @@ class Autopilot:
         t_us = round(self._now * 1e6)
         if not self.armed:
             self._vz_sp = 0.0
+            self._pos_sp = self._vel_sp = None
             return HilActuatorControls(t_us, _ZEROS16, 0, 1)
         sp, vz_override, idle = self._setpoint()
+        self._pos_sp, self._vel_sp = sp, None
         cruise = self._cruise or p["MPC_XY_CRUISE"]
         up = (
             p["MPC_TKO_SPEED"]
@@ -630,6 +642,7 @@ class Autopilot:
         if self.failsafe is not None or not est.position_ok(self._now):
             vel_sp = (0.0, 0.0, vel_sp[2])  # no position: hold still horizontally
         self._vz_sp = vel_sp[2]
+        self._vel_sp = vel_sp
         if self.velocity_vehicle:
             return HilActuatorControls(
                 t_us,
@@ -1103,6 +1116,28 @@ class Autopilot:
         seq = min(self.seq, max(len(self.mission) - 1, 0))
         return self._d.MAVLink_mission_current_message(seq, len(self.mission), state, in_mission)
 
+    def _msg_position_target_local_ned(self) -> bytes:
+        pos, vel = self._pos_sp, self._vel_sp
+        mask = TARGET_IGNORE_ACCEL | TARGET_IGNORE_YAW_RATE
+        if pos is None:
+            pos, mask = _NANS3, mask | TARGET_IGNORE_POSITION
+        if vel is None:
+            vel, mask = _NANS3, mask | TARGET_IGNORE_VELOCITY
+        return pack_scalar(
+            self.mav,
+            self._d.MAVLink_position_target_local_ned_message,
+            round(self._now * 1000),
+            *pos,
+            *vel,
+            0.0,
+            0.0,
+            0.0,
+            self._yaw_sp if self.armed else math.nan,
+            0.0,
+            mask,
+            FRAME_LOCAL_NED,
+        )
+
     def _msg_gps_raw_int(self) -> Any:
         est = self.est
         lat, lon, alt, eph, epv, vel, cog = est.gps_raw
@@ -1195,6 +1230,7 @@ class Autopilot:
 
 
 _ZEROS12 = [0.0] * 12
+_NANS3 = (math.nan, math.nan, math.nan)
 _ZEROS16 = [0.0] * 16
 
 

@@ -404,10 +404,10 @@ class PX4Simulation(ScenarioSimulation):
         self.world: Node = simulation.get(world_id)
 
     def trace_options(self) -> TraceOptions:
-        """What a recorder of this simulation should know (truth type, Foxglove channels)."""
+        """What a recorder of this simulation should know (types, decoders, Foxglove channels)."""
         from ._trace import trace_options
 
-        return trace_options(self.firmware._component.world)
+        return trace_options(self.firmware._component)
 
     def flight_logs(self) -> list[Path]:
         """Real PX4's ULog files so far (``log/**/*.ulg``; Flight Review reads them).

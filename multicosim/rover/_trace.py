@@ -1,4 +1,4 @@
-"""What a trace of the rover scenario shows: typed topics, the map track and the 3-D pose."""
+"""What a trace of the rover scenario shows: typed topics, the map track, the 3-D pose, paths."""
 
 from __future__ import annotations
 
@@ -12,7 +12,10 @@ from ..trace import (
     POSE_IN_FRAME,
     Converted,
     TraceOptions,
+    local_path,
     location_fix,
+    message_path,
+    pose_message,
 )
 from ._messages import (
     ABORT_TOPIC,
@@ -40,6 +43,10 @@ def _fix(message: Any) -> tuple[float, float, float]:
     return message["latitude"], message["longitude"], message["altitude"]
 
 
+def _enu(message: Any) -> tuple[float, float, float]:
+    return message["x"], message["y"], message["z"]  # the world's local frame is ENU
+
+
 class _Pose:
     """``foxglove.PoseInFrame`` from the world's position and IMU orientation (ENU ``map``)."""
 
@@ -56,23 +63,16 @@ class _Pose:
         p = self._latest
         if p is None:
             return ()
-        w, x, y, z = message["orientation"]
-        pose = {
-            "timestamp": {"sec": time_ns // 1_000_000_000, "nsec": time_ns % 1_000_000_000},
-            "frame_id": "map",
-            "pose": {
-                "position": {"x": p["x"], "y": p["y"], "z": p["z"]},
-                "orientation": {"x": x, "y": y, "z": z, "w": w},
-            },
-        }
+        pose = pose_message(time_ns, _enu(p), message["orientation"])
         return (Converted(POSE_CHANNEL, POSE_IN_FRAME, pose),)
 
 
 def trace_options(world: WorldConfig) -> TraceOptions:
     """Types of every rover topic (remapped ones too) and the Foxglove channels.
 
-    ``mcs/location`` and ``mcs/pose`` follow what the world publishes (the truth, when an
-    injector corrupts the controller's copy); ``mcs/location/sensed`` follows what the
+    ``mcs/location``, ``mcs/pose`` and ``mcs/path/measured`` follow what the world's position
+    sensor publishes (noisy from medium fidelity on; uncorrupted when an injector corrupts the
+    controller's copy); ``mcs/location/sensed`` and ``mcs/path/sensed`` follow what the
     controller reads when the position is remapped.
     """
     types: dict[str, type[Any]] = {COMMAND_TOPIC: Command, ABORT_TOPIC: Abort}
@@ -82,9 +82,17 @@ def trace_options(world: WorldConfig) -> TraceOptions:
     converters: list[Any] = [
         location_fix(position, _fix),
         _Pose(position, world.topic("imu", SENSOR_TOPICS["imu"])),
+        local_path(position, _enu, label="measured"),
     ]
     if position != SENSOR_TOPICS["position"]:
-        converters.append(
-            location_fix(SENSOR_TOPICS["position"], _fix, channel=f"{LOCATION_CHANNEL}/sensed")
+        sensed = SENSOR_TOPICS["position"]
+        converters.append(location_fix(sensed, _fix, channel=f"{LOCATION_CHANNEL}/sensed"))
+        converters.append(local_path(sensed, _enu, label="sensed"))
+    wheel = world.topic("wheel_speed", SENSOR_TOPICS["wheel_speed"])
+    plots = [
+        (
+            "speed: command vs wheel odometry (m/s)",
+            [message_path(COMMAND_TOPIC, "speed"), message_path(wheel, "speed")],
         )
-    return TraceOptions(types=types, converters=converters)
+    ]
+    return TraceOptions(types=types, converters=converters, plots=plots)

@@ -396,7 +396,7 @@ def test_rover_trace_shows_truth_and_sensed_track(tmp_path: Any, fidelity: str) 
     assert set(pose) == {"position", "orientation"}
 
 
-def test_px4_trace_shows_the_truth_on_the_map(tmp_path: Any) -> None:
+def test_px4_trace_shows_truth_and_estimate_on_the_map(tmp_path: Any) -> None:
     from multicosim.trace import Recorder, read_trace
 
     proj = LocalProjection(px4.Home().lat, px4.Home().lon)
@@ -404,10 +404,13 @@ def test_px4_trace_shows_the_truth_on_the_map(tmp_path: Any) -> None:
     with px4.PX4(fidelity="low").start() as simulation, Recorder().attach(simulation) as rec:
         simulation.firmware.send(px4.Configuration([px4.Waypoint(lat, lon, 8.0)], end="hold"))
     trace = read_trace(rec.save(tmp_path / "px4.mcap"))
-    fix = trace.topic("mcs/location")[-1].data
-    assert proj.project(fix["latitude"], fix["longitude"]) == pytest.approx((0.0, 20.0), abs=2.5)
-    assert fix["altitude"] == pytest.approx(px4.Home().alt + 8.0, abs=1.0)
-    position = trace.topic("mcs/pose")[-1].data["pose"]["position"]
+    for track in ("px4/location/truth", "px4/location/estimate"):
+        fix = trace.topic(track)[-1].data
+        north_east = proj.project(fix["latitude"], fix["longitude"])
+        assert north_east == pytest.approx((0.0, 20.0), abs=2.5)
+        assert fix["altitude"] == pytest.approx(px4.Home().alt + 8.0, abs=1.0)
+    # The pose is the autopilot's: its estimated position, east-north-up.
+    position = trace.topic("px4/pose")[-1].data["pose"]["position"]
     assert (position["x"], position["y"], position["z"]) == pytest.approx((20.0, 0.0, 8.0), abs=2.5)
 
 

@@ -67,7 +67,7 @@ from multicosim.requirements import Requirement
 PIT_REQUIREMENT = Requirement(PIT)
 
 
-@settings(max_examples=300, database=None, derandomize=True)
+@settings(max_examples=300, database=None, derandomize=True, deadline=None)
 @given(speed=st.floats(0.0, 5.0), steps=st.integers(1, 100))
 def test_never_rests_in_the_pit(mcs_fresh_simulation, speed, steps):
     with mcs_fresh_simulation(CartScenario) as cart:
@@ -76,7 +76,7 @@ def test_never_rests_in_the_pit(mcs_fresh_simulation, speed, steps):
     PIT_REQUIREMENT.check(trajectory)
 
 
-@settings(max_examples=20, database=None, derandomize=True)
+@settings(max_examples=20, database=None, derandomize=True, deadline=None)
 @given(speed=st.floats(0.0, 5.0))
 def test_stays_on_the_track(mcs_fresh_simulation, speed):
     with mcs_fresh_simulation(CartScenario) as cart:
@@ -138,3 +138,24 @@ def test_falsifying_example_from_a_report_or_an_exception() -> None:
     assert falsifying_example(error) is None
     error.add_note("Failing test case: test_z(a=2)")
     assert falsifying_example(error) == "Failing test case: test_z(a=2)"
+
+
+def test_falsifying_examples_of_an_exception_group() -> None:
+    # Hypothesis reports several distinct failures of one test as an ExceptionGroup.
+    first, second = AssertionError("one"), ValueError("two")
+    first.add_note("Falsifying example: test_w(a=1)")
+    second.add_note("Falsifying example: test_w(a=-1)")
+    group = ExceptionGroup("Hypothesis found 2 distinct failures.", [first, second])
+    assert falsifying_example(group) == (
+        "Falsifying example: test_w(a=1)\nFalsifying example: test_w(a=-1)"
+    )
+    assert falsifying_example(ExceptionGroup("no examples", [ValueError("x")])) is None
+    text = (
+        "  | ExceptionGroup: Hypothesis found 2 distinct failures. (2 sub-exceptions)\n"
+        "  +-+---------------- 1 ----------------\n"
+        "    | AssertionError: one\n"
+        "    | Falsifying example: test_w(\n"
+        "    |     a=1,\n"
+        "    | )\n"
+    )
+    assert falsifying_example(text) == "Falsifying example: test_w(\n    a=1,\n)"

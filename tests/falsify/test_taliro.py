@@ -38,7 +38,8 @@ def test_uniform_random_finds_the_pit_and_saves_the_trace(tmp_path: Path) -> Non
     speed, steps = result.sample["speed"], round(result.sample["steps"])
     assert abs(speed * (steps - 1) * 0.05 - 3.7) < 0.1
     assert result.evaluation.worst_time > 0
-    mcap_path, png_path = result.traces
+    mcap_path, layout_path, png_path = result.traces
+    assert layout_path.name == "trace.layout.json"
     assert png_path.suffix == ".png"
     trace = read_trace(mcap_path)
     assert trace.info["search"] == "psy-taliro"

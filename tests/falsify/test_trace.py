@@ -7,12 +7,14 @@ from pathlib import Path
 import pytest
 from falsify_cart import PIT, CartScenario
 from mcap.reader import make_reader
+from mcap.writer import Writer
 
 import multicosim as mcs
 from multicosim.requirements import Requirement
 from multicosim.strategies import FreshSimulations
 from multicosim.testing import Cart
 from multicosim.trace import (
+    DIALECT,
     METADATA_NAME,
     Recorder,
     TestTrace,
@@ -59,6 +61,7 @@ def test_every_topic_is_recorded_with_schemas_from_the_message_types(tmp_path: P
     counts = {t: trace.channels[t].count for t in trace.channels}
     assert sum(counts.values()) == len(recorder.deliveries)
     assert trace.channels["state"].schema["properties"]["x"] == {"type": "number"}
+    assert trace.channels["state"].schema["$schema"] == DIALECT
     states = trace.topic("state")
     assert [m.log_time for m in states] == sorted(m.log_time for m in states)
     # The cart ends where the driver saw it: 2 m/s for 30 periods of 0.05 s, one period late.
@@ -176,8 +179,8 @@ def test_a_test_trace_keeps_the_last_example_and_the_evaluation(tmp_path: Path) 
     assert len(session.recorders) == 1  # the first example's recording was dropped
     assert all(not r._scheduler for r in session.recorders)  # detached at the end
     written = session.save(tmp_path, failing_example={"speed": 2.0, "steps": 37})
-    assert [p.name for p in written] == ["trace.mcap", "trace.png"]
-    assert written[1].read_bytes().startswith(PNG_MAGIC)
+    assert [p.name for p in written] == ["trace.mcap", "trace.layout.json", "trace.png"]
+    assert written[2].read_bytes().startswith(PNG_MAGIC)
     trace = read_trace(written[0])
     assert {"state", "cmd", "mcs/trajectory", "mcs/robustness"} <= set(trace.channels)
     last = trace.topic("mcs/trajectory")[-1].data
@@ -206,6 +209,19 @@ def test_plot_command(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> Non
     (tmp_path / "bad.mcap").write_bytes(b"not an mcap file")
     assert plot_command(str(tmp_path / "bad.mcap")) == 1
     assert "not a readable MCAP trace" in capsys.readouterr().err
+    assert not (tmp_path / "bad.png").exists()
+
+    # A valid MCAP file that multicosim did not write: a clear error, no blank picture.
+    with open(tmp_path / "foreign.mcap", "wb") as stream:
+        writer = Writer(stream)
+        writer.start(profile="", library="another tool")
+        schema = writer.register_schema("point", "jsonschema", b'{"type": "object"}')
+        channel = writer.register_channel("/points", "json", schema)
+        writer.add_message(channel, log_time=0, data=b'{"x": 1}', publish_time=0)
+        writer.finish()
+    assert plot_command(str(tmp_path / "foreign.mcap")) == 1
+    assert "not a multicosim trace" in capsys.readouterr().err
+    assert not (tmp_path / "foreign.png").exists()
 
 
 def test_read_errors(tmp_path: Path) -> None:

@@ -369,30 +369,39 @@ def test_quoted(word):
 """
 
 
-def test_failure_report_shows_seed_and_replay_command(pytester: pytest.Pytester) -> None:
+def test_failure_report_shows_seed_and_replay_command(
+    pytester: pytest.Pytester, monkeypatch: pytest.MonkeyPatch
+) -> None:
     pytester.makepyfile(test_failing=FAILING)
     result = pytester.runpytest("--mcs-fidelity=low,medium", "--mcs-seed=31337")
     result.assert_outcomes(passed=2, failed=2, skipped=1)
+    here = pytester.path
     result.stdout.fnmatch_lines(
         [
             "*- multicosim -*",
-            "seed 31337, fidelity medium, backend process",
-            "replay: pytest 'test_failing.py::test_fails[[]medium[]]' --mcs-seed=31337 "
+            "verdict: AssertionError: seeded failure*",
+            f"replay: pytest '{here}/test_failing.py::test_fails[[]medium[]]' --mcs-seed=31337 "
             "--mcs-fidelity=medium --mcs-backend=process",
+            "seed 31337, fidelity medium, backend process",
             "*- multicosim -*",
+            "verdict: AssertionError: assert \"it's [[]odd[]]\" == 'plain'*",
+            f"replay: pytest *{here}/test_failing.py::test_quoted* --mcs-seed=31337 "
+            "--mcs-fidelity=low,medium *",
             "seed 31337, fidelity low,medium, backend process",
-            "replay: pytest *test_quoted* --mcs-seed=31337 --mcs-fidelity=low,medium *",
         ]
     )
     assert result.stdout.str().count("- multicosim -") == 2  # passing tests get no section
 
-    # Each replay command runs exactly its failing test again, with the same outcome.
+    # Each replay command runs exactly its failing test again, with the same outcome, from
+    # any directory.
     replays = [
         line.removeprefix("replay: pytest ")
         for line in result.stdout.lines
         if line.startswith("replay: pytest ")
     ]
     assert len(replays) == 2
+    elsewhere = pytester.mkdir("elsewhere")
+    monkeypatch.chdir(elsewhere)
     for replay, message in zip(replays, ["seeded failure", "it's [odd]"], strict=True):
         again = pytester.runpytest(*shlex.split(replay))
         again.assert_outcomes(failed=1)
@@ -417,8 +426,9 @@ def test_failure_in_a_fixture_also_shows_the_seed(pytester: pytest.Pytester) -> 
     result.assert_outcomes(errors=1)
     result.stdout.fnmatch_lines(
         [
+            "verdict: RuntimeError: setup went wrong",
+            f"replay: pytest {pytester.path}/test_setup.py::test_uses_it --mcs-seed=4 *",
             "seed 4, fidelity low, backend process",
-            "replay: pytest test_setup.py::test_uses_it --mcs-seed=4 *",
         ]
     )
 
@@ -439,7 +449,8 @@ def test_failure_report_shows_component_log_and_saves_it(pytester: pytest.Pytest
     pytester.makepyfile(test_component=COMPONENT_FAILS)
     result = pytester.runpytest("--mcs-artifacts=arts")
     result.assert_outcomes(failed=1)
-    saved = pytester.path / "arts" / "test_component.py_test_component_output" / "chatty.log"
+    test_dir = pytester.path / "arts" / "test_component.py_test_component_output"
+    saved = test_dir / "seed-0-process" / "chatty.log"
     result.stdout.fnmatch_lines(
         [
             "seed 0, fidelity low, backend process",
@@ -460,6 +471,25 @@ def test_keep_traces_none_saves_nothing(pytester: pytest.Pytester) -> None:
     assert not (pytester.path / "arts").exists()
 
 
+@pytest.mark.usefixtures("programs")
+def test_artifacts_are_kept_per_seed_and_never_stale(pytester: pytest.Pytester) -> None:
+    pytester.makepyfile(test_component=COMPONENT_FAILS)
+    pytester.runpytest("--mcs-artifacts=arts", "--mcs-seed=1").assert_outcomes(failed=1)
+    test_dir = pytester.path / "arts" / "test_component.py_test_component_output"
+    first = test_dir / "seed-1-process"
+    assert {"chatty.log", "trace.mcap", "trace.layout.json"} <= {p.name for p in first.iterdir()}
+    stale = first / "left-by-an-earlier-run.mcap"
+    stale.write_text("old")
+    # A replay with another seed writes beside the original failure's files.
+    pytester.runpytest("--mcs-artifacts=arts", "--mcs-seed=2").assert_outcomes(failed=1)
+    assert (test_dir / "seed-2-process" / "trace.mcap").is_file()
+    assert stale.exists()
+    # The same seed again replaces what the earlier run left: nothing stale stays beside it.
+    pytester.runpytest("--mcs-artifacts=arts", "--mcs-seed=1").assert_outcomes(failed=1)
+    assert not stale.exists()
+    assert (first / "trace.mcap").is_file()
+
+
 @pytest.mark.parametrize(("keep", "kept"), [("all", True), ("failed", False)])
 @pytest.mark.usefixtures("programs")
 def test_keep_traces_of_passing_tests(pytester: pytest.Pytester, keep: str, kept: bool) -> None:
@@ -476,7 +506,7 @@ def test_keep_traces_of_passing_tests(pytester: pytest.Pytester, keep: str, kept
     result = pytester.runpytest("--mcs-artifacts=arts", f"--mcs-keep-traces={keep}")
     result.assert_outcomes(passed=1)
     assert "- multicosim -" not in result.stdout.str()  # a passing test gets no section
-    log = pytester.path / "arts" / "test_passing.py_test_passes" / "quiet.log"
+    log = pytester.path / "arts" / "test_passing.py_test_passes" / "seed-0-process" / "quiet.log"
     assert log.exists() is kept
     if kept:
         assert "all went well" in log.read_text()
@@ -762,7 +792,8 @@ def test_new_session_sweeps_what_a_killed_run_left(
     assert not process_gone(sleeper, timeout=0.5), "the leftover must outlive its host"
     assert len(list(isolated_runs.iterdir())) == 1
 
-    pytester.makepyfile(test_after="def test_after(): pass")
+    # A session sweeps once it runs a test of ours (one that uses a multicosim fixture).
+    pytester.makepyfile(test_after="def test_after(mcs_seed): pass")
     pytester.runpytest_subprocess(timeout=60).assert_outcomes(passed=1)
     assert process_gone(sleeper)
     # A firmware also exits by itself once its host is gone.

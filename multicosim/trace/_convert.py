@@ -1,0 +1,207 @@
+"""Converters: channels derived from recorded messages at save time, and TraceOptions.
+
+A scenario tells recorders what its topics mean with ``trace_options()``: message types,
+converters that derive Foxglove well-known channels (``foxglove.LocationFix`` for the Map
+panel, ``foxglove.PoseInFrame`` for the 3D panel, ...) and local paths for the plot, topics
+that only make sense decoded, MAVLink links for a ``.tlog`` and the plots a layout shows.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from typing import Any, Protocol
+
+from .._errors import ConfigurationError
+from ._schemas import LOCATION_FIX, PATH_POINT, POSE_IN_FRAME, Schema, stamp
+
+__all__ = [
+    "LOCATION_CHANNEL",
+    "PATH_CHANNEL",
+    "POSE_CHANNEL",
+    "Converted",
+    "Converter",
+    "TraceOptions",
+    "local_path",
+    "location_fix",
+    "pose_in_frame",
+    "trace_options",
+]
+
+LOCATION_CHANNEL = "mcs/location"
+POSE_CHANNEL = "mcs/pose"
+PATH_CHANNEL = "mcs/path"  # mcs/path/<label>: local east/north/up points, for plots
+
+
+@dataclasses.dataclass(frozen=True)
+class Converted:
+    """One message a converter derives from a recorded one."""
+
+    channel: str
+    schema: Schema
+    message: Mapping[str, Any]
+
+
+class Converter(Protocol):
+    """Derives messages (e.g. Foxglove well-known ones) from the messages of ``topics``.
+
+    It is called at save time, in time order, with the message as JSON-like builtins (what
+    the topic's channel shows: objects as dicts; ``bytes`` fields stay bytes), so it works
+    the same for in-process and process publishers.
+    """
+
+    @property
+    def topics(self) -> tuple[str, ...]:
+        """The recorded topics it converts."""
+        ...
+
+    def __call__(self, topic: str, time_ns: int, message: Any) -> Iterable[Converted]:
+        """The derived messages for one recorded message."""
+        ...
+
+
+@dataclasses.dataclass(frozen=True)
+class _FieldConverter:
+    topics: tuple[str, ...]
+    channel: str
+    build: Callable[[Any, int], Mapping[str, Any] | None]
+    schema: Schema
+
+    def __call__(self, topic: str, time_ns: int, message: Any) -> Iterable[Converted]:
+        built = self.build(message, time_ns)
+        return () if built is None else (Converted(self.channel, self.schema, built),)
+
+
+def location_fix(
+    topic: str,
+    position: Callable[[Any], tuple[float, float, float] | None],
+    *,
+    channel: str = LOCATION_CHANNEL,
+    frame_id: str = "base_link",
+) -> Converter:
+    """A ``foxglove.LocationFix`` channel from ``topic``.
+
+    ``position(message)`` returns (latitude, longitude, altitude) in degrees and metres, or
+    None to skip the message, e.g. ``lambda m: (m["latitude"], m["longitude"], m["altitude"])``.
+    """
+
+    def build(message: Any, time_ns: int) -> Mapping[str, Any] | None:
+        fix = position(message)
+        if fix is None:
+            return None
+        return fix_message(time_ns, *fix, frame_id=frame_id)
+
+    return _FieldConverter((topic,), channel, build, LOCATION_FIX)
+
+
+def fix_message(
+    time_ns: int, lat: float, lon: float, alt: float, *, frame_id: str = "base_link"
+) -> dict[str, Any]:
+    """A ``foxglove.LocationFix`` message (no covariance known)."""
+    return {
+        "timestamp": stamp(time_ns),
+        "frame_id": frame_id,
+        "latitude": float(lat),
+        "longitude": float(lon),
+        "altitude": float(alt),
+        "position_covariance": [0.0] * 9,
+        "position_covariance_type": 0,
+    }
+
+
+def pose_in_frame(
+    topic: str,
+    pose: Callable[[Any], tuple[Sequence[float], Sequence[float]] | None],
+    *,
+    channel: str = POSE_CHANNEL,
+    frame_id: str = "map",
+) -> Converter:
+    """A ``foxglove.PoseInFrame`` channel from ``topic``.
+
+    ``pose(message)`` returns ((x, y, z), (w, x, y, z)): position in metres in ``frame_id``
+    and orientation as a unit quaternion (scalar first, as MuJoCo writes it), or None.
+    """
+
+    def build(message: Any, time_ns: int) -> Mapping[str, Any] | None:
+        found = pose(message)
+        if found is None:
+            return None
+        return pose_message(time_ns, *found, frame_id=frame_id)
+
+    return _FieldConverter((topic,), channel, build, POSE_IN_FRAME)
+
+
+def pose_message(
+    time_ns: int,
+    position: Sequence[float],
+    orientation: Sequence[float],
+    *,
+    frame_id: str = "map",
+) -> dict[str, Any]:
+    """A ``foxglove.PoseInFrame`` message; ``orientation`` is (w, x, y, z)."""
+    px, py, pz = position
+    qw, qx, qy, qz = orientation
+    return {
+        "timestamp": stamp(time_ns),
+        "frame_id": frame_id,
+        "pose": {
+            "position": {"x": float(px), "y": float(py), "z": float(pz)},
+            "orientation": {"x": float(qx), "y": float(qy), "z": float(qz), "w": float(qw)},
+        },
+    }
+
+
+def local_path(
+    topic: str, position: Callable[[Any], tuple[float, float, float] | None], *, label: str
+) -> Converter:
+    """A path channel ``mcs/path/LABEL`` from ``topic``, which the trace's plot draws.
+
+    ``position(message)`` returns (east, north, up) in metres from the scenario's local
+    origin, or None to skip the message. Label paths by what they are (``truth``,
+    ``estimate``, ``sensed``).
+    """
+
+    def build(message: Any, time_ns: int) -> Mapping[str, Any] | None:
+        point = position(message)
+        if point is None:
+            return None
+        east, north, up = (float(v) for v in point)
+        return {"east": east, "north": north, "up": up}
+
+    return _FieldConverter((topic,), f"{PATH_CHANNEL}/{label}", build, PATH_POINT)
+
+
+@dataclasses.dataclass(frozen=True)
+class TraceOptions:
+    """What a scenario tells the recorder about its topics.
+
+    ``types`` maps topics to message types; ``converters`` derive more channels; ``plan`` is
+    a planned path, points (east, north[, up]) in metres in the local frame; ``replaced``
+    topics are written only as what their converters derive (a MAVLink link, decoded into a
+    channel per message type); the MAVLink frames of the ``tlog`` topics (a ``data`` bytes
+    field) also go to a ``.tlog`` beside the trace; ``plots`` are the (title, message paths)
+    that its Foxglove layout plots, e.g. a setpoint beside the value it commands.
+
+    A simulation offers them with a ``trace_options()`` method; recorders attached to it use
+    them (their own ``types`` and ``converters`` take precedence).
+    """
+
+    types: Mapping[str, Any] = dataclasses.field(default_factory=dict)
+    converters: Sequence[Converter] = ()
+    plan: Sequence[Sequence[float]] = ()
+    replaced: Sequence[str] = ()
+    tlog: Sequence[str] = ()
+    plots: Sequence[tuple[str, Sequence[str]]] = ()
+
+
+def trace_options(simulation: object) -> TraceOptions:
+    """The scenario's trace options of ``simulation`` (empty if it offers none)."""
+    method = getattr(simulation, "trace_options", None)
+    options = method() if callable(method) else None
+    if options is None:
+        return TraceOptions()
+    if not isinstance(options, TraceOptions):
+        raise ConfigurationError(
+            "trace_options()", options, "a multicosim.trace.TraceOptions (or None)"
+        )
+    return options

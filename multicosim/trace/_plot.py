@@ -1,0 +1,220 @@
+"""A trace as a picture: the paths (plan, estimate, truth), the requirement's signals, its margin.
+
+The path panel draws east to the right and north up, from the ``mcs/path/*`` channels
+scenarios derive (each labelled by what it is: ``truth``, ``estimate``, ...) and the plan
+(``mcs/plan``). The signal panel plots the signals the requirement reads; the robustness
+panel the deciding predicate's margin. Both mark the first violation and the worst time.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from .._deps import require
+from .._errors import TraceError
+from ._convert import PATH_CHANNEL
+from ._mcap import METADATA_NAME, TraceData, TraceMessage, read_trace
+from ._recorder import PLAN_CHANNEL, ROBUSTNESS_CHANNEL, TRAJECTORY_CHANNEL
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
+
+__all__ = ["figure", "plot_trace"]
+
+_STYLES = {
+    "truth": ("tab:green", "-"),
+    "measured": ("tab:green", "-"),
+    "estimate": ("tab:blue", "-"),
+    "sensed": ("tab:blue", "-"),
+}
+_DESCRIPTIONS = {
+    "truth": "truth (the world's position)",
+    "measured": "measured (the world's position sensor)",
+    "estimate": "estimate (what the vehicle believed)",
+    "sensed": "sensed (what the controller read)",
+}
+
+
+def _columns(messages: Sequence[TraceMessage], *names: str) -> dict[str, list[float]]:
+    out: dict[str, list[float]] = {"time": [], **{n: [] for n in names}}
+    for m in messages:
+        if not isinstance(m.data, dict) or not all(
+            isinstance(m.data.get(n), int | float) for n in names
+        ):
+            continue
+        out["time"].append(m.time)
+        for n in names:
+            out[n].append(float(m.data[n]))
+    return out
+
+
+def _float(text: str | None) -> float | None:
+    try:
+        value = float(text) if text is not None and text not in ("", "null") else None
+    except ValueError:
+        return None
+    return value if value is not None and math.isfinite(value) else None
+
+
+def _text(value: float | None) -> str:
+    return "n/a" if value is None else f"{value:.4g}"
+
+
+def _mark(ax: Axes, first: float | None, worst: float | None) -> None:
+    if first is not None:
+        ax.axvline(first, color="tab:red", linewidth=1.2, label=f"first violation ({first:.3g} s)")
+    if worst is not None:
+        ax.axvline(worst, color="tab:red", linestyle=":", label=f"worst time ({worst:.3g} s)")
+
+
+def figure(data: TraceData, title: str = "") -> Figure:
+    """The plot of a trace read back (see the module docstring)."""
+    require("matplotlib", "plot")
+    from matplotlib.figure import Figure
+
+    info = data.info
+    paths = sorted(t for t in data.channels if t.startswith(PATH_CHANNEL + "/"))
+    trajectory = data.topic(TRAJECTORY_CHANNEL)
+    robustness = data.topic(ROBUSTNESS_CHANNEL)
+    if not (paths or trajectory or robustness):
+        raise TraceError(
+            "the trace holds nothing to plot (no mcs/path/*, mcs/trajectory or mcs/robustness)"
+        )
+    first = _float(info.get("first_violation"))
+    worst = _float(info.get("worst_time"))
+
+    fig = Figure(figsize=(8, 12))
+    ax_path, ax_signals, ax_rob = fig.subplots(3, 1, height_ratios=(3, 2, 2))
+    verdict = ""
+    rho = _float(info.get("robustness"))
+    if info.get("requirement"):
+        state = "violated" if rho is not None and rho < 0 else "holds"
+        verdict = f"\n{info['requirement']}: {state} (robustness {_text(rho)})"
+    fig.suptitle(f"{title or info.get('test') or 'trace'}{verdict}", fontsize=9)
+
+    # -- paths: east right, north up --------------------------------------------------------
+    if paths:
+        for topic in paths:
+            label = topic.removeprefix(PATH_CHANNEL + "/")
+            color, style = _STYLES.get(label, (None, "-"))
+            cols = _columns(data.topic(topic), "east", "north")
+            (line,) = ax_path.plot(
+                cols["east"],
+                cols["north"],
+                style,
+                color=color,
+                label=_DESCRIPTIONS.get(label, label),
+                linewidth=1.2,
+            )
+            line.set_gid(f"path/{label}")
+            if first is not None and cols["time"]:
+                i = min(range(len(cols["time"])), key=lambda k: abs(cols["time"][k] - first))
+                ax_path.plot(cols["east"][i], cols["north"][i], "x", color="tab:red", markersize=9)
+        for m in data.topic(PLAN_CHANNEL)[-1:]:
+            points = m.data.get("points", []) if isinstance(m.data, dict) else []
+            if points:
+                (line,) = ax_path.plot(
+                    [p["east"] for p in points],
+                    [p["north"] for p in points],
+                    "o--",
+                    color="tab:orange",
+                    label="plan",
+                    markersize=4,
+                )
+                line.set_gid("plan")
+        if first is not None:
+            ax_path.plot([], [], "x", color="tab:red", label="at the first violation")
+        ax_path.set_xlabel("east (m)")
+        ax_path.set_ylabel("north (m)")
+        ax_path.set_aspect("equal", adjustable="datalim")
+        ax_path.set_title("path (local frame, from the start)")
+    elif trajectory:
+        keys = [
+            k
+            for k in ("x", "y")
+            if isinstance(trajectory[0].data, dict) and k in trajectory[0].data
+        ]
+        for key in keys:
+            cols = _columns(trajectory, key)
+            ax_path.plot(cols["time"], cols[key], label=key)
+        ax_path.set_xlabel("time (s)")
+        ax_path.set_title("position over time (no path recorded)")
+    if ax_path.has_data():
+        ax_path.legend(loc="best", fontsize=8)
+
+    # -- the requirement's signals ----------------------------------------------------------
+    signals = _names(info.get("signals"))
+    if trajectory:
+        fields = set(trajectory[0].data) if isinstance(trajectory[0].data, dict) else set()
+        names = [s for s in signals if s in fields] or sorted(fields - {"time"})[:6]
+        ax_signals.set_title(
+            "signals of the requirement" if signals else "trajectory signals (no requirement)"
+        )
+        for name in names:
+            cols = _columns(trajectory, name)
+            (line,) = ax_signals.plot(cols["time"], cols[name], label=name)
+            line.set_gid(f"signal/{name}")
+    elif paths:
+        ax_signals.set_title("height above the start (no requirement evaluated)")
+        for topic in paths:
+            cols = _columns(data.topic(topic), "up")
+            ax_signals.plot(cols["time"], cols["up"], label=topic.removeprefix(PATH_CHANNEL + "/"))
+    _mark(ax_signals, first, worst)
+    if ax_signals.has_data():
+        ax_signals.legend(loc="best", fontsize=8)
+    ax_signals.set_xlabel("time (s)")
+
+    # -- robustness -------------------------------------------------------------------------
+    if robustness:
+        cols = _columns(robustness, "margin")
+        head = robustness[0].data
+        ax_rob.plot(
+            cols["time"],
+            cols["margin"],
+            color="tab:purple",
+            drawstyle="steps-post",
+            label=f"margin of {head.get('predicate') or head.get('formula')}",
+        )
+        ax_rob.axhline(0.0, color="black", linewidth=0.8)
+        if rho is not None:
+            ax_rob.axhline(rho, color="tab:red", linestyle="--", linewidth=0.8, label="robustness")
+        _mark(ax_rob, first, worst)
+        ax_rob.set_title(f"robustness of {head.get('formula')}: {_text(rho)}")
+        ax_rob.legend(loc="best", fontsize=8)
+        ax_rob.set_xlabel("time (s)")
+    else:
+        ax_rob.set_axis_off()
+        ax_rob.text(0.5, 0.5, "no requirement evaluated", ha="center", va="center")
+    fig.tight_layout()
+    return fig
+
+
+def _names(text: str | None) -> list[str]:
+    import json
+
+    if not text:
+        return []
+    try:
+        value = json.loads(text)
+    except ValueError:
+        return []
+    return [str(v) for v in value] if isinstance(value, list) else []
+
+
+def plot_trace(trace: str | Path, output: str | Path) -> Path:
+    """Plot a multicosim trace to a PNG; raise TraceError for a file that is not one."""
+    data = read_trace(trace)
+    if METADATA_NAME not in data.metadata:
+        raise TraceError(
+            f"{str(trace)!r} is an MCAP file but not a multicosim trace (it has no "
+            f"{METADATA_NAME!r} metadata record)"
+        )
+    fig = figure(data)
+    output = Path(output)
+    output.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(output, dpi=80)
+    return output

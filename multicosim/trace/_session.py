@@ -1,0 +1,164 @@
+"""The traces of one test: a recorder per simulation it starts, active in a context variable."""
+
+from __future__ import annotations
+
+import contextlib
+import contextvars
+import logging
+import threading
+from collections.abc import Iterator, Mapping, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from ._convert import Converter
+from ._recorder import TRAJECTORY_CHANNEL, Recorder
+
+if TYPE_CHECKING:
+    from ..requirements import Evaluation, Requirement, Signals
+
+__all__ = ["TestTrace", "activate", "active"]
+
+log = logging.getLogger(__name__)
+
+_current: contextvars.ContextVar[TestTrace | None] = contextvars.ContextVar(
+    "multicosim_test_trace", default=None
+)
+
+
+class TestTrace:
+    """The traces of one test: a recorder per simulation started in it, plus notes.
+
+    The pytest plugin activates one (:func:`activate`) from the setup of a test that uses
+    multicosim's fixtures to its teardown; simulations started through ``mcs_simulations``
+    (and so the scenario fixtures) or a fresh-simulation factory are attached to it, and
+    requirement evaluations are noted in it. With ``record=False``
+    (``--mcs-keep-traces=none``) it only carries the test's metadata (fidelity, seed) for
+    fresh simulations. :meth:`begin_example` forgets what an earlier Hypothesis example
+    recorded, so what is saved is the last (for a failing test: the final, minimal) example.
+    """
+
+    __test__ = False  # not a pytest test class, despite the name
+
+    def __init__(
+        self,
+        *,
+        metadata: Mapping[str, object] | None = None,
+        types: Mapping[str, Any] | None = None,
+        converters: Sequence[Converter] = (),
+        record: bool = True,
+    ) -> None:
+        self.metadata: dict[str, object] = dict(metadata or {})
+        self.record = record
+        self.types = dict(types or {})
+        self.converters = list(converters)
+        self.recorders: list[Recorder] = []
+        self.example = 0
+        self._evaluation: tuple[Evaluation, Signals] | None = None
+        self._lock = threading.Lock()
+
+    def attach(
+        self,
+        simulation: object,
+        *,
+        types: Mapping[str, Any] | None = None,
+        converters: Sequence[Converter] = (),
+    ) -> Recorder | None:
+        """Record ``simulation`` (unless ``record`` is off: then None).
+
+        Scenario ``types``/``converters`` add to the test's own.
+        """
+        if not self.record:
+            return None
+        recorder = Recorder(
+            types={**self.types, **(types or {})},
+            converters=[*self.converters, *converters],
+        )
+        recorder.attach(simulation)
+        with self._lock:
+            self.recorders.append(recorder)
+        return recorder
+
+    def begin_example(self) -> None:
+        """A new Hypothesis example starts: drop the recordings of the previous one."""
+        with self._lock:
+            for recorder in self.recorders:
+                recorder.detach()
+            self.recorders = []
+            self._evaluation = None
+            self.example += 1
+
+    def detach(self) -> None:
+        """Stop recording every simulation (what was recorded stays); idempotent."""
+        for recorder in self.recorders:
+            recorder.detach()
+
+    def note_evaluation(
+        self, requirement: Requirement, signals: Signals, evaluation: Evaluation
+    ) -> None:
+        """Keep the latest requirement evaluation (its trajectory and robustness go in)."""
+        if self.record:
+            self._evaluation = (evaluation, signals)
+
+    @property
+    def evaluation(self) -> Evaluation | None:
+        """The latest requirement evaluation noted, if any."""
+        return self._evaluation[0] if self._evaluation is not None else None
+
+    def save(self, directory: str | Path, *, plot: bool = True, **metadata: object) -> list[Path]:
+        """Write one MCAP trace per recorded simulation, and beside each its Foxglove layout
+        (``.layout.json``), its MAVLink traffic (``.tlog``, where there is some) and a PNG plot.
+
+        Returns the written paths (traces with their layouts and logs, then plots). Nothing is
+        written when nothing was recorded. A failing plot (matplotlib missing, say) does not
+        prevent the trace.
+        """
+        from ._plot import plot_trace
+
+        directory = Path(directory)
+        recorders = list(self.recorders)
+        if not recorders and self._evaluation is not None:
+            recorders = [Recorder(types=self.types, converters=self.converters)]
+        written: list[Path] = []
+        plots: list[Path] = []
+        for index, recorder in enumerate(recorders):
+            recorder.metadata.update(self.metadata)
+            if self._evaluation is not None and index == len(recorders) - 1:
+                evaluation, signals = self._evaluation
+                recorder.add_signals(signals, TRAJECTORY_CHANNEL)
+                recorder.add_evaluation(evaluation)
+            name = "trace" if len(recorders) == 1 else f"trace-{index}"
+            path = recorder.save(directory / f"{name}.mcap", **metadata)
+            written.append(path)
+            written.append(recorder.save_layout(directory / f"{name}.layout.json"))
+            tlog = recorder.save_tlog(directory / f"{name}.tlog")
+            if tlog is not None:
+                written.append(tlog)
+            if plot:
+                try:
+                    plots.append(plot_trace(path, directory / f"{name}.png"))
+                except Exception as exc:  # a plot is a diagnosis aid: keep the trace anyway
+                    log.warning("could not plot %s: %s", path, exc)
+        return written + plots
+
+
+def active() -> TestTrace | None:
+    """The trace of the test running now, if the plugin (or a search) activated one."""
+    return _current.get()
+
+
+@contextlib.contextmanager
+def activate(test_trace: TestTrace) -> Iterator[TestTrace]:
+    """Make ``test_trace`` the active one for the duration of the block (one test)."""
+    token = _current.set(test_trace)
+    try:
+        yield test_trace
+    finally:
+        _current.reset(token)
+        test_trace.detach()
+
+
+def _note_evaluation(requirement: Requirement, signals: Signals, evaluation: Evaluation) -> None:
+    """Called by Requirement.evaluate: note it in the active test's trace."""
+    current = _current.get()
+    if current is not None:
+        current.note_evaluation(requirement, signals, evaluation)
