@@ -44,14 +44,21 @@ def _children() -> set[int]:
     return found
 
 
+# CI names the real firmware in the environment; an inner session that checks its outcomes
+# must see only what the test itself gives it.
+_FIRMWARE_SETTINGS = ("MCS_PX4_", "MCS_ARDUPILOT_")
+
+
+@pytest.fixture(scope="session")
+def inner_env() -> dict[str, str]:
+    """This process's environment without the real-firmware settings (for inner sessions)."""
+    return {k: v for k, v in os.environ.items() if not k.startswith(_FIRMWARE_SETTINGS)}
+
+
 @pytest.fixture
 def pytester(pytester: pytest.Pytester, monkeypatch: pytest.MonkeyPatch) -> pytest.Pytester:
-    """pytest's pytester, its inner sessions kept from this run's real-firmware settings.
-
-    CI names the real firmware in the environment (``MCS_PX4_BINARY``, ...); an inner
-    session that checks its outcomes must see only what the test itself gives it.
-    """
+    """pytest's pytester, its inner sessions kept from this run's real-firmware settings."""
     for name in list(os.environ):
-        if name.startswith(("MCS_PX4_", "MCS_ARDUPILOT_")):
+        if name.startswith(_FIRMWARE_SETTINGS):
             monkeypatch.delenv(name)
     return pytester

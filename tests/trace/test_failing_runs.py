@@ -65,7 +65,9 @@ filterwarnings = error
 
 
 @pytest.fixture(scope="module")
-def failing_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str]:
+def failing_run(
+    tmp_path_factory: pytest.TempPathFactory, inner_env: dict[str, str]
+) -> tuple[Path, str]:
     """Run the failing suite once (four failures); yield its directory and its output."""
     path = tmp_path_factory.mktemp("failing_run")
     (path / "pytest.ini").write_text(INI)
@@ -82,6 +84,7 @@ def failing_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str]:
             "no:xdist",
         ],
         cwd=path,
+        env=inner_env,
         capture_output=True,
         text=True,
         timeout=600,
