@@ -17,6 +17,7 @@ import logging
 import signal
 import sys
 import threading
+from pathlib import Path
 
 __all__ = ["main"]
 
@@ -113,7 +114,7 @@ def main(argv: list[str] | None = None) -> int:
 
 def _real(parser: argparse.ArgumentParser, args: argparse.Namespace, stop: threading.Event) -> int:
     from .._errors import ConfigurationError
-    from ._real import API_LOCAL_PORT, SITL
+    from ._real import API_PORT, GCS_PORT, SITL
     from ._sitl import run_real_sitl
 
     try:
@@ -121,11 +122,10 @@ def _real(parser: argparse.ArgumentParser, args: argparse.Namespace, stop: threa
     except ConfigurationError as exc:
         parser.error(str(exc))
 
-    def ready(instance: int) -> None:
-        api = API_LOCAL_PORT - 40 + instance
+    def ready(instance: int, run_dir: Path) -> None:
         print(
-            f"real PX4 SITL instance {instance} is flying the MuJoCo world: "
-            f"QGroundControl on UDP 14550, MAVSDK on udpin://0.0.0.0:{api}",
+            f"real PX4 SITL instance {instance} is flying the MuJoCo world: QGroundControl on "
+            f"UDP {GCS_PORT}, MAVSDK on udpin://0.0.0.0:{API_PORT + instance} (logs: {run_dir})",
             flush=True,
         )
 

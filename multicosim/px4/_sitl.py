@@ -15,6 +15,7 @@ import logging
 import socket
 import threading
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 from .._local import LocalEnvironment, ParticipantComponent, ProcessSimulator
@@ -180,7 +181,7 @@ def run_real_sitl(
     seed: int = 0,
     duration: float | None = None,
     stop: threading.Event | None = None,
-    on_ready: Callable[[int], None] | None = None,
+    on_ready: Callable[[int, Path], None] | None = None,
 ) -> float:
     """Run real PX4 SITL on our MuJoCo world, paced at ``speed`` x real time, in lockstep.
 
@@ -189,7 +190,8 @@ def run_real_sitl(
     image, PX4 runs in a container (instance 0) whose links reach those ports on this host.
     Runs until ``duration`` simulated seconds, ``stop`` or Ctrl-C; returns the simulated
     time reached.
-    ``on_ready`` gets PX4's instance number once it is connected.
+    ``on_ready`` gets PX4's instance number and the run directory (PX4's output and working
+    directory) once PX4 is connected.
     """
     from ._simulator import PX4Component, sitl_period
 
@@ -209,6 +211,6 @@ def run_real_sitl(
     with sim.start() as simulation:
         instance = simulation.get(px4_id).instance
         if on_ready is not None:
-            on_ready(instance)
+            on_ready(instance, simulation.run_dir)
         log.info("real PX4 SITL (instance %d) running at %gx real time", instance, speed)
         return _run(simulation, duration, stop)

@@ -8,6 +8,7 @@ simulator_mavlink, and the launch errors against stand-in ``px4`` programs.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import re
@@ -27,8 +28,8 @@ import multicosim.px4 as px4
 from multicosim.geo import LocalProjection
 from multicosim.px4._config import world_topics
 from multicosim.px4._hil import Truth
-from multicosim.px4._hilserver import SIM_PORT, HilTcpBridge
-from multicosim.px4._real import API_LOCAL_PORT, claim_instance
+from multicosim.px4._hilserver import HilTcpBridge
+from multicosim.px4._real import API_LOCAL_PORT, API_PORT, claim_instance
 from multicosim.px4._simulator import WorldComponent
 from pytest_multicosim.px4 import RealPX4
 
@@ -242,19 +243,19 @@ def test_bridge_drops_a_client_that_speaks_no_mavlink() -> None:
 
 def test_claimed_instances_skip_ports_in_use() -> None:
     first, held = claim_instance()
-    try:
-        api = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        api.bind(("127.0.0.1", API_LOCAL_PORT + first + 1))
-        try:
-            second, other = claim_instance()
-            other.close()
-        finally:
-            api.close()
-    finally:
-        held.close()
-    # The simulator port of the first is held, the API port of the next one is taken.
-    assert second not in (first, first + 1)
-    assert held.fileno() == -1
+    with held, contextlib.ExitStack() as stack:
+        # Hold the API port of a free instance after it (other runs may hold some already).
+        for taken in range(first + 1, first + 20):
+            api = stack.enter_context(socket.socket(socket.AF_INET, socket.SOCK_DGRAM))
+            try:
+                api.bind(("127.0.0.1", API_LOCAL_PORT + taken))
+                break
+            except OSError:
+                continue
+        second, other = claim_instance()
+        other.close()
+    # Neither the instance whose simulator port is held nor the one whose API port is.
+    assert second not in (first, taken)
 
 
 # -- the launch's errors -------------------------------------------------------------------------
@@ -380,11 +381,11 @@ def test_standalone_sitl_serves_px4s_usual_ports(
         while match is None and time.monotonic() < deadline:
             line = proc.stdout.readline()
             assert line or proc.poll() is None, "the SITL exited before it was ready"
-            match = re.search(r"instance (\d+) .*udpin://0.0.0.0:(\d+)", line)
+            match = re.search(r"instance (\d+) .*udpin://0.0.0.0:(\d+) .*logs: (\S+)\)", line)
         # (a container's PX4 is instance 0 of its own network, and sends to this host)
         assert match, "the SITL never said it was ready"
-        instance, port = int(match[1]), int(match[2])
-        assert port == API_LOCAL_PORT - 40 + instance
+        instance, port, run_dir = int(match[1]), int(match[2]), match[3]
+        assert port == API_PORT + instance
         gcs = mavutil.mavlink_connection(f"udpin:0.0.0.0:{port}", source_system=250)
         try:
             heartbeat = gcs.wait_heartbeat(timeout=60)
@@ -409,7 +410,8 @@ def test_standalone_sitl_serves_px4s_usual_ports(
             proc.wait(10)
         assert proc.stdout is not None
         proc.stdout.close()
-    if where == "process":
-        # PX4 and its ports are gone with it (a container's are on a network of its own).
-        with socket.socket() as sim_port:
-            sim_port.bind(("127.0.0.1", SIM_PORT + instance))
+    # PX4 is gone with it, and its run directory too.
+    assert not Path(run_dir).exists()
+    for cmdline in Path("/proc").glob("[0-9]*/cmdline"):
+        with contextlib.suppress(OSError):
+            assert run_dir.encode() not in cmdline.read_bytes(), f"{cmdline} outlived the SITL"
