@@ -22,17 +22,12 @@ from typing import Any, Generic, Literal, Protocol, TypeVar
 
 from .. import _wire as wire
 from .._clock import Scheduler
+from .._environment import LocalEnvironment
 from .._errors import ConfigurationError, NodeCrashedError, NodeStartError, NodeTimeoutError
+from .._firmware import FirmwareNode, check_types
 from .._interfaces import Node
-from .._local import (
-    DEFAULT_SEND_TIMEOUT,
-    DEFAULT_START_TIMEOUT,
-    FirmwareNode,
-    LocalEnvironment,
-    _check_positive,
-    _check_types,
-    _split_command,
-)
+from .._processes import split_command
+from .._waits import DEFAULT_SEND_TIMEOUT, DEFAULT_START_TIMEOUT, check_timeout
 from ._engine import APIError, NotFound, _start_time, labels, require_image
 
 __all__ = [
@@ -385,7 +380,7 @@ class ContainerComponent:
 
     def __post_init__(self) -> None:
         _check_image(self.image)
-        args = _split_command(self.command)
+        args = split_command(self.command)
         _check_env(self.env)
         if isinstance(self.ports, str | int):
             raise ConfigurationError("ports", self.ports, "a sequence of ports, e.g. (14540,)")
@@ -393,8 +388,8 @@ class ContainerComponent:
             _port_key(port)
         if self.ready not in ("handshake", "started"):
             raise ConfigurationError("ready", self.ready, "'handshake' or 'started'")
-        _check_positive("start_timeout", self.start_timeout)
-        _check_positive("stop_timeout", self.stop_timeout)
+        check_timeout("start_timeout", self.start_timeout)
+        check_timeout("stop_timeout", self.stop_timeout)
         if self.name is None:
             object.__setattr__(self, "name", _default_name(args, self.image))
 
@@ -414,7 +409,7 @@ class ContainerComponent:
             environment,
             name=self.name,
             image=self.image,
-            args=_split_command(self.command),
+            args=split_command(self.command),
             env=self.env,
             publish={_port_key(p): None for p in self.ports},
             share_with=share,
@@ -480,7 +475,7 @@ class FirmwareComponent(Generic[MsgT, ReplyT]):
 
     def __post_init__(self) -> None:
         _check_image(self.image)
-        args = _split_command(self.command)
+        args = split_command(self.command)
         for field in ("port", "host_port"):
             value = getattr(self, field)
             if (value is not None or field == "port") and (
@@ -488,10 +483,10 @@ class FirmwareComponent(Generic[MsgT, ReplyT]):
             ):
                 allowed = "an integer port in 1..65535" + (", or None" if field != "port" else "")
                 raise ConfigurationError(field, value, allowed)
-        _check_types(self.msgtype, self.replytype)
+        check_types(self.msgtype, self.replytype)
         _check_env(self.env)
         for field in ("timeout", "start_timeout", "stop_timeout"):
-            _check_positive(field, getattr(self, field))
+            check_timeout(field, getattr(self, field))
         if self.name is None:
             object.__setattr__(self, "name", _default_name(args, self.image))
 
@@ -502,7 +497,7 @@ class FirmwareComponent(Generic[MsgT, ReplyT]):
     def start(self, environment: ContainerEnvironment) -> ContainerFirmwareNode[MsgT, ReplyT]:
         """Start the container, wait for its handshake and its answer through the port."""
         assert self.name is not None
-        args = [a.replace("{port}", str(self.port)) for a in _split_command(self.command)]
+        args = [a.replace("{port}", str(self.port)) for a in split_command(self.command)]
         key = f"{self.port}/tcp"
         container, _ = _launch(
             environment,
