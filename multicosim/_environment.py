@@ -10,7 +10,8 @@ import zmq
 from . import _wire as wire
 from ._clock import Scheduler
 from ._coordinator import Coordinator
-from ._waits import SLICE_MS
+from ._rundirs import record_process
+from ._waits import DEFAULT_STEP_TIMEOUT, SLICE_MS
 
 __all__ = ["LocalEnvironment"]
 
@@ -26,6 +27,7 @@ class LocalEnvironment:
         seed: int,
         scheduler: Scheduler,
         coordinator_host: str = "127.0.0.1",
+        step_timeout: float = DEFAULT_STEP_TIMEOUT,
     ) -> None:
         self.run_id = run_id
         self.run_dir = run_dir
@@ -33,6 +35,7 @@ class LocalEnvironment:
         self.scheduler = scheduler
         self.zctx: zmq.Context[Any] = zmq.Context()
         self._coordinator_host = coordinator_host
+        self.step_timeout = step_timeout
         self._coordinator: Coordinator | None = None
         self._order = 0
 
@@ -40,7 +43,12 @@ class LocalEnvironment:
     def coordinator(self) -> Coordinator:
         """The coordinator socket, bound on first use."""
         if self._coordinator is None:
-            self._coordinator = Coordinator(self.scheduler, self.zctx, self._coordinator_host)
+            self._coordinator = Coordinator(
+                self.scheduler,
+                self.zctx,
+                self._coordinator_host,
+                step_timeout=self.step_timeout,
+            )
         return self._coordinator
 
     @property
@@ -54,18 +62,22 @@ class LocalEnvironment:
         return self._order
 
     def component_env(self, name: str) -> dict[str, str]:
-        """Environment variables that place a component process in this simulation."""
+        """Environment variables that place a component process in this simulation.
+
+        They include the component's secret token: environment variables, unlike command
+        lines, are not readable by other users' processes.
+        """
         return {
             wire.ENV_COORDINATOR: self.coordinator.address,
             wire.ENV_NODE_NAME: name,
             wire.ENV_SEED: str(self.seed),
             wire.ENV_RUN_ID: self.run_id,
+            wire.ENV_TOKEN: self.coordinator.token(name),
         }
 
     def record_pid(self, pid: int) -> None:
         """Remember a started process group so a sweep can remove it if this run is killed."""
-        with open(self.run_dir / "pids", "a") as f:
-            f.write(f"{pid}\n")
+        record_process(self.run_dir, pid)
 
     def idle(self, extra: zmq.Socket[Any]) -> bool | None:
         """Wait a slice for frames (see ``Coordinator.pump``); check participants when quiet."""

@@ -61,7 +61,9 @@ class FirmwareNode(Generic[MsgT, ReplyT]):
 
     ``send`` runs the simulation's clock while it waits, so the firmware's handler can step
     through simulated time; it gives up after ``timeout`` seconds of wall time, and raises at
-    once if the component exits, naming it with its exit code and last output.
+    once if the component exits, naming it with its exit code and last output. ``token`` is
+    the component's secret (its firmware answers only the identity it names); None for a
+    firmware served outside a simulation.
     """
 
     def __init__(
@@ -76,6 +78,7 @@ class FirmwareNode(Generic[MsgT, ReplyT]):
         environment: LocalEnvironment | None,
         on_stop: Callable[[], None],
         zctx: zmq.Context[Any] | None = None,
+        token: str | None = None,
     ) -> None:
         self.name = name
         self.endpoint = endpoint
@@ -87,6 +90,8 @@ class FirmwareNode(Generic[MsgT, ReplyT]):
         self._on_stop = on_stop
         self._socket = (zctx or zmq.Context.instance()).socket(zmq.DEALER)
         self._socket.setsockopt(zmq.LINGER, 0)
+        if token is not None:
+            self._socket.setsockopt(zmq.ROUTING_ID, token.encode())
         self._socket.connect(endpoint)
         # Checked after every lockstep step while a call runs: a poll is cheaper than a
         # non-blocking recv that raises (and Socket.poll would build a Poller per call).
@@ -247,6 +252,7 @@ class FirmwareProcessComponent(Generic[MsgT, ReplyT]):
             environment=environment,
             on_stop=node.stop,
             zctx=environment.zctx,
+            token=environment.coordinator.token(self.name),
         )
 
 
@@ -296,6 +302,7 @@ class FirmwareThreadComponent(Generic[MsgT, ReplyT]):
         stop = threading.Event()
         errors: list[str] = []
         coordinator = environment.coordinator
+        token = coordinator.token(name)
 
         def run() -> None:
             try:
@@ -303,6 +310,7 @@ class FirmwareThreadComponent(Generic[MsgT, ReplyT]):
                     self.firmware,
                     stop=stop,
                     environment=(coordinator.address, name, environment.seed),
+                    token=token,
                 )
             except BaseException:
                 import traceback
@@ -333,4 +341,5 @@ class FirmwareThreadComponent(Generic[MsgT, ReplyT]):
             environment=environment,
             on_stop=halt,
             zctx=environment.zctx,
+            token=token,
         )

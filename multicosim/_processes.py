@@ -3,14 +3,16 @@
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import dataclasses
+import functools
 import logging
 import os
 import shlex
 import signal
 import subprocess
 import sys
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Literal
 
@@ -33,6 +35,7 @@ log = logging.getLogger(__name__)
 
 
 def split_command(command: str | Sequence[str], field: str = "command") -> list[str]:
+    """A command line as a list of arguments; ConfigurationError naming ``field`` if empty."""
     args = shlex.split(command) if isinstance(command, str) else [str(a) for a in command]
     if not args or not args[0].strip():
         raise ConfigurationError(field, command, "a non-empty command")
@@ -55,6 +58,7 @@ def default_name(args: list[str]) -> str:
 
 
 def check_port(port: int | None) -> None:
+    """Raise ConfigurationError unless ``port`` is None or a port number 1..65535."""
     if port is not None and (
         isinstance(port, bool) or not isinstance(port, int) or not 1 <= port <= 65535
     ):
@@ -69,8 +73,47 @@ def _resolve_python(args: list[str]) -> list[str]:
     return args
 
 
+_PR_SET_PDEATHSIG = 1  # from <linux/prctl.h>
+
+
+@functools.cache
+def _prctl() -> Callable[..., int] | None:
+    if not sys.platform.startswith("linux"):
+        return None
+    try:
+        prctl: Callable[..., int] = ctypes.CDLL(None, use_errno=True).prctl
+    except (OSError, AttributeError):
+        return None
+    return prctl
+
+
+def _die_with_host() -> Callable[[], None] | None:
+    """What a child runs before its program: SIGKILL for it once its host has died (Linux).
+
+    Even a component busy inside a step then ends with its host (SIGKILL to pytest, a crash,
+    an out-of-memory kill), instead of waiting for the next session's sweep. Linux delivers
+    the signal when the *thread* that started the child ends, so simulations must run in a
+    thread that outlives them (pytest's, a script's main thread). Elsewhere components only
+    notice a lost host while they wait (``multicosim._runtime.HostWatch``).
+    """
+    prctl = _prctl()
+    if prctl is None:
+        return None
+    host = os.getpid()
+
+    def arm() -> None:  # runs in the child between fork and exec: no imports, no locks
+        prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+        if os.getppid() != host:
+            os._exit(1)  # the host died before the signal was armed
+
+    return arm
+
+
 class ProcessHandle:
-    """A started local process in its own process group, with its output in a log file."""
+    """A started local process in its own process group, with its output in a log file.
+
+    It is killed (SIGKILL) if its host process dies, even in the middle of a step (Linux).
+    """
 
     def __init__(
         self,
@@ -94,6 +137,7 @@ class ProcessHandle:
                 env={**os.environ, **env},
                 cwd=cwd,
                 start_new_session=True,
+                preexec_fn=_die_with_host(),
             )
         except OSError as exc:
             self._log.close()

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
+import math
 import os
-import uuid
 from pathlib import Path
 from typing import Any, Generic, TypeVar, overload
 
@@ -13,8 +13,9 @@ from ._clock import Scheduler
 from ._environment import LocalEnvironment
 from ._errors import ConfigurationError, MulticosimError
 from ._interfaces import Component, Node, NodeId, new_simulator_token
-from ._rundirs import remove_tree, runs_directory
+from ._rundirs import new_run_dir, remove_tree
 from ._simulation import NodeSet
+from ._waits import DEFAULT_STEP_TIMEOUT, check_timeout
 
 __all__ = [
     "InProcessSimulation",
@@ -26,6 +27,10 @@ __all__ = [
 ]
 
 NodeT = TypeVar("NodeT", bound=Node)
+
+# Slower pacing than a thousandth of real time is a mistake, not a setting: a run would
+# look hung.
+MIN_REALTIME = 1e-3
 
 
 class ProcessSimulation(NodeSet):
@@ -88,13 +93,22 @@ class LocalSimulatorBase(Generic[EnvT]):
         seed: int = 0,
         realtime: float | None = None,
         run_dir: str | os.PathLike[str] | None = None,
+        step_timeout: float = DEFAULT_STEP_TIMEOUT,
     ) -> None:
         if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
             raise ConfigurationError("seed", seed, "a non-negative integer")
-        if realtime is not None and (not isinstance(realtime, int | float) or not realtime > 0):
-            raise ConfigurationError("realtime", realtime, "None or a positive speed factor")
+        if realtime is not None and (
+            isinstance(realtime, bool)
+            or not isinstance(realtime, int | float)
+            or not MIN_REALTIME <= realtime < math.inf
+        ):
+            raise ConfigurationError(
+                "realtime", realtime, f"None or a finite speed factor >= {MIN_REALTIME:g}"
+            )
+        check_timeout("step_timeout", step_timeout)
         self.seed = seed
         self.realtime = realtime
+        self.step_timeout = step_timeout
         self.run_dir = Path(run_dir) if run_dir is not None else None
         self._token = new_simulator_token()
         self._components: list[tuple[NodeId[Any], Any]] = []
@@ -158,12 +172,7 @@ class LocalSimulatorBase(Generic[EnvT]):
                 "this simulator was already started; create a new simulator for another run"
             )
         self._started = True
-        run_id = f"mcs-{uuid.uuid4().hex[:12]}"
-        base = self.run_dir if self.run_dir is not None else runs_directory()
-        run_dir = base / run_id
-        run_dir.mkdir(parents=True)
-        (run_dir / "owner").write_text(str(os.getpid()))
-        return run_id, run_dir
+        return new_run_dir(self.run_dir)
 
     def _start_components(self, simulation: ProcessSimulation, environment: EnvT) -> None:
         """Start every component in add order; on failure stop those started, then raise."""
@@ -182,7 +191,9 @@ class ProcessSimulator(LocalSimulatorBase[LocalEnvironment]):
     """The local backend: components in-process or as local processes, in lockstep.
 
     ``seed`` fixes every random source; ``realtime`` paces simulated time to wall time
-    (None: as fast as possible); ``run_dir`` keeps logs there instead of a temporary folder.
+    (None: as fast as possible); ``run_dir`` keeps logs there instead of a temporary folder;
+    ``step_timeout`` is how long (wall-clock seconds) a process participant may take for one
+    step before the run fails with NodeTimeoutError naming it.
     """
 
     def start(self) -> ProcessSimulation:
@@ -193,6 +204,7 @@ class ProcessSimulator(LocalSimulatorBase[LocalEnvironment]):
             run_dir=run_dir,
             seed=self.seed,
             scheduler=Scheduler(realtime=self.realtime),
+            step_timeout=self.step_timeout,
         )
         simulation = ProcessSimulation(self._token, environment, self.run_dir is not None)
         simulation._add_cleanup("the clock and sockets", simulation._finish)

@@ -27,8 +27,14 @@ from .._errors import ConfigurationError, NodeCrashedError, NodeStartError, Node
 from .._firmware import FirmwareNode, check_types
 from .._interfaces import Node
 from .._processes import split_command
-from .._waits import DEFAULT_SEND_TIMEOUT, DEFAULT_START_TIMEOUT, check_timeout
-from ._engine import APIError, NotFound, _start_time, labels, require_image
+from .._rundirs import start_time
+from .._waits import (
+    DEFAULT_SEND_TIMEOUT,
+    DEFAULT_START_TIMEOUT,
+    DEFAULT_STEP_TIMEOUT,
+    check_timeout,
+)
+from ._engine import APIError, NotFound, labels, require_image
 
 __all__ = [
     "AttachedComponent",
@@ -71,9 +77,15 @@ class ContainerEnvironment(LocalEnvironment):
         network: str,
         gateway: str,
         keep_logs: bool = False,
+        step_timeout: float = DEFAULT_STEP_TIMEOUT,
     ) -> None:
         super().__init__(
-            run_id=run_id, run_dir=run_dir, seed=seed, scheduler=scheduler, coordinator_host=gateway
+            run_id=run_id,
+            run_dir=run_dir,
+            seed=seed,
+            scheduler=scheduler,
+            coordinator_host=gateway,
+            step_timeout=step_timeout,
         )
         self.client = client
         self.network = network
@@ -123,7 +135,7 @@ class ContainerNode:
         # a firmware round trip. A local engine's containers are host processes: watch the
         # init process's /proc entry (with its start time, so a recycled pid is not mistaken).
         if pid > 0 and _engine_is_local():
-            start = _start_time(pid)
+            start = start_time(pid)
             if start is not None:
                 self._pid_stat = (pid, start)
 
@@ -137,7 +149,7 @@ class ContainerNode:
             if now - self._checked < 0.02:
                 return None
             pid, start = self._pid_stat
-            if _start_time(pid) == start:
+            if start_time(pid) == start:
                 self._checked = now
                 return None
             self._pid_stat = None  # gone: ask the engine for the exit code
@@ -446,6 +458,7 @@ class ContainerFirmwareNode(FirmwareNode[MsgT, ReplyT]):
             environment=environment,
             on_stop=container.stop,
             zctx=environment.zctx,
+            token=environment.coordinator.token(container.name),
         )
         self.container = container
         self.host_port = host_port

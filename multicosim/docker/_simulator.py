@@ -98,6 +98,7 @@ class ContainerSimulator(LocalSimulatorBase[ContainerEnvironment]):
                 network=run_id,
                 gateway=gateway.split("/")[0],
                 keep_logs=self.run_dir is not None,
+                step_timeout=self.step_timeout,
             )
         except BaseException:
             api.remove_network(network["Id"])
