@@ -207,8 +207,7 @@ class Coordinator:
                 )
 
     def check_alive(self) -> None:
-        """Raise NodeCrashedError if any watched participant has exited (on quiet slices)."""
-        self.refused.drain()
+        """Raise NodeCrashedError if any watched participant has exited."""
         for name, watch in self._watches.items():
             if name in self._hellos and watch.poll() is not None:
                 raise crashed(watch, "exited while the simulation ran")

@@ -717,11 +717,13 @@ def serve(
                     ctx.time_ns = request.time_ns
                     answer = handle_call(fw, request, ctx)
                 rpc.send_multipart([ident, wire.encoder.encode(answer)])
-            if not events:
-                refused.drain()
-                if stop is None and (conn.orphaned() if conn is not None else os.getppid() != ppid):
-                    log.info("%s: the simulation host has gone", name)
-                    break
+            if (
+                stop is None
+                and not events
+                and (conn.orphaned() if conn is not None else os.getppid() != ppid)
+            ):
+                log.info("%s: the simulation host has gone", name)
+                break
     except SimulationStopped as exc:
         log.info("%s", exc)
     finally:

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import threading
 from typing import TYPE_CHECKING, Any
 
 import msgspec
@@ -159,39 +160,50 @@ def describe_peer(head: zmq.Frame) -> str:
 
     try:
         address = head.get("Peer-Address")
-    except zmq.ZMQError:  # not over TCP (inproc, ipc)
-        address = "unknown"
+    except zmq.ZMQError:  # not over TCP, or a peer of ZeroMQ's first protocol version
+        address = "at an unknown address"
     identity = head.bytes
-    shown = repr(identity[:24]) + ("..." if len(identity) > 24 else "")
+    shown = repr(identity[:40]) + ("..." if len(identity) > 40 else "")
     return f"peer {address} (identity {shown})"
 
 
 class Drops:
-    """Warnings for dropped frames: each of the first ``limit``, then at 10x, 100x, ... that.
+    """Warnings for dropped frames, bounded: a flood costs a few log lines, not one a frame.
 
-    A flood of bad frames therefore costs a few log lines, not one per frame.
+    The first ``per_peer`` frames of each of the first ``peers`` peers are logged one by one;
+    after that, a line at every tenfold of the total (100, 1000, ...).
     """
 
-    def __init__(self, where: str, logger: logging.Logger, limit: int = 20) -> None:
+    def __init__(
+        self, where: str, logger: logging.Logger, *, per_peer: int = 3, peers: int = 50
+    ) -> None:
         self.where = where
         self.count = 0
         self._logger = logger
-        self._limit = limit
-        self._next_summary = limit * 10
+        self._per_peer = per_peer
+        self._max_peers = peers
+        self._peers: dict[str, int] = {}
+        self._next_summary = 100
 
     def drop(self, peer: str, reason: str) -> None:
         """Record (and perhaps log) that a frame from ``peer`` was dropped for ``reason``."""
         self.count += 1
-        if self.count <= self._limit:
+        seen = self._peers.get(peer)
+        if seen is None and len(self._peers) < self._max_peers:
+            seen = 0
+        if seen is not None and seen < self._per_peer:
+            self._peers[peer] = seen + 1
             self._logger.warning("%s: dropped a frame from %s: %s", self.where, peer, reason)
-            if self.count == self._limit:
+            if seen + 1 == self._per_peer:
                 self._logger.warning(
-                    "%s: further dropped frames are counted, not each logged", self.where
+                    "%s: further frames from %s are dropped and counted, not logged",
+                    self.where,
+                    peer,
                 )
         elif self.count >= self._next_summary:
             self._next_summary *= 10
             self._logger.warning(
-                "%s: %d frames dropped so far (last from %s: %s)",
+                "%s: %d frames dropped so far (the last from %s: %s)",
                 self.where,
                 self.count,
                 peer,
@@ -209,51 +221,59 @@ _HANDSHAKE_FAILURES = {
 class HandshakeFailures:
     """Logs connections to ``socket`` that ZeroMQ refused because they failed its handshake.
 
-    ZeroMQ drops such a connection (random bytes, a port scanner, a half-open connection)
-    before a frame reaches the program; its monitor only tells which of our endpoints it hit.
-    Read with :meth:`drain` where a program is idle anyway, never on the lockstep path.
+    ZeroMQ drops such a connection (an HTTP request, a port scanner, half a greeting) before
+    a frame reaches the program; its monitor only tells which of our endpoints it hit. A
+    thread waits on the monitor (in ZeroMQ, without the GIL), so watching costs nothing on
+    the lockstep path and each refusal is logged at once. Some garbage ZeroMQ closes without
+    any event (a first byte of 0): that is dropped too, but cannot be reported.
     """
 
     def __init__(self, socket: zmq.Socket[Any], where: str, logger: logging.Logger) -> None:
         import zmq
 
         self.where = where
+        self.count = 0
         self._logger = logger
         self._socket = socket
         self._reasons = {getattr(zmq, k): v for k, v in _HANDSHAKE_FAILURES.items()}
-        events = 0
+        events = zmq.EVENT_MONITOR_STOPPED
         for event in self._reasons:
             events |= event
-        self._monitor: zmq.Socket[Any] | None = socket.get_monitor_socket(events)
-        self.count = 0
+        monitor = socket.get_monitor_socket(events)
+        self._thread: threading.Thread | None = threading.Thread(
+            target=self._watch, args=(monitor,), name="multicosim-refusals", daemon=True
+        )
+        self._thread.start()
 
-    def drain(self) -> None:
-        """Log every refused connection reported since the last call."""
+    def _watch(self, monitor: zmq.Socket[Any]) -> None:
         import zmq
         from zmq.utils.monitor import recv_monitor_message
 
-        monitor = self._monitor
-        while monitor is not None and monitor.poll(0):
-            event = recv_monitor_message(monitor, zmq.NOBLOCK)
-            self.count += 1
-            if self.count <= 20:
-                raw = event.get("endpoint", b"")
-                endpoint = raw.decode(errors="replace") if isinstance(raw, bytes) else str(raw)
-                self._logger.warning(
-                    "%s: refused a connection to %s: %s",
-                    self.where,
-                    endpoint,
-                    self._reasons.get(event["event"], f"handshake event {event['event']}"),
-                )
+        try:
+            while True:
+                event = recv_monitor_message(monitor)
+                if event["event"] == zmq.EVENT_MONITOR_STOPPED:
+                    return
+                self.count += 1
+                if self.count <= 20:
+                    raw = event.get("endpoint", b"")
+                    endpoint = raw.decode(errors="replace") if isinstance(raw, bytes) else raw
+                    reason = self._reasons.get(event["event"], f"event {event['event']}")
+                    self._logger.warning(
+                        "%s: refused a connection to %s: %s", self.where, endpoint, reason
+                    )
+        except zmq.ZMQError:  # the context was terminated under us
+            return
+        finally:
+            monitor.close(0)
 
     def close(self) -> None:
-        """Log what is left, then stop monitoring."""
-        if self._monitor is None:
-            return
-        self.drain()
+        """Stop watching (before the socket is closed)."""
         import zmq
 
+        thread, self._thread = self._thread, None
+        if thread is None:
+            return
         with contextlib.suppress(zmq.ZMQError):  # the socket is already closed
             self._socket.disable_monitor()
-        self._monitor.close(0)
-        self._monitor = None
+        thread.join(2.0)
