@@ -19,6 +19,7 @@ except ImportError as exc:  # pragma: no cover - exercised only without the extr
     raise DependencyMissingError("docker", "docker") from exc
 
 __all__ = [
+    "LABEL_COMPONENT",
     "LABEL_OWNER",
     "LABEL_RUN",
     "LABEL_SESSION",
@@ -42,6 +43,7 @@ __all__ = [
 LABEL_RUN = "multicosim.run"
 LABEL_SESSION = "multicosim.session"
 LABEL_OWNER = "multicosim.owner"
+LABEL_COMPONENT = "multicosim.component"  # on containers: the component's name
 
 _START_HINT = (
     "start it with `sudo setsid nohup dockerd >/tmp/dockerd.log 2>&1 </dev/null &` "
