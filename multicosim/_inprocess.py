@@ -66,8 +66,8 @@ class _Deadlines:
     ``ctx.step()`` checks the deadline); one that loops without stepping can only be
     interrupted from outside: one daemon thread per process checks the armed calls every
     ``POLL`` seconds and raises :class:`_Expired` in the thread of a call ``GRACE`` seconds
-    past its deadline. Arming and disarming cost a dictionary update under a lock. A handler
-    blocked inside a C call (``time.sleep``) is interrupted when it returns to Python.
+    past its deadline. Arming and disarming cost two dictionary updates. A handler blocked
+    inside a C call (``time.sleep``) is interrupted when it returns to Python.
     """
 
     POLL = 0.1
@@ -83,21 +83,23 @@ class _Deadlines:
     def arm(self, deadline: float) -> int:
         """Watch a call made now by this thread; return its key for :meth:`disarm`."""
         key = next(self._count)
-        with self._lock:
-            self._armed[key] = (threading.get_ident(), deadline)
-            if self._thread is None:
-                self._thread = threading.Thread(
-                    target=self._watch, name="multicosim-deadlines", daemon=True
-                )
-                self._thread.start()
+        # A plain dict update (atomic under the GIL): arming costs no lock.
+        self._armed[key] = (threading.get_ident(), deadline)
+        if self._thread is None:
+            with self._lock:
+                if self._thread is None:
+                    self._thread = threading.Thread(
+                        target=self._watch, name="multicosim-deadlines", daemon=True
+                    )
+                    self._thread.start()
         return key
 
     def disarm(self, key: int) -> bool:
         """Stop watching call ``key``; True if it was interrupted (or is about to be)."""
+        if self._armed.pop(key, None) is not None:
+            return False  # the usual case: the watch had not fired, and now it cannot
         me = threading.get_ident()
-        with self._lock:
-            if self._armed.pop(key, None) is not None:
-                return False
+        with self._lock:  # the watch fired: it has raised, under this lock, in our thread
             if self._fired.pop(key, None) is None:
                 return True  # disarmed before: this is the second call for the same key
             if me not in self._fired.values():
@@ -112,8 +114,7 @@ class _Deadlines:
             now = time.monotonic()
             with self._lock:
                 for key, (thread, deadline) in list(self._armed.items()):
-                    if now > deadline + self.GRACE:
-                        del self._armed[key]
+                    if now > deadline + self.GRACE and self._armed.pop(key, None) is not None:
                         self._fired[key] = thread
                         _interrupt(thread, _Expired)
 
