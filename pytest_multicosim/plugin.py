@@ -96,6 +96,8 @@ class _Activity:
     explicit: bool  # an --mcs-* option was given: act for every test
     fixtures: frozenset[str]  # the fixtures we provide (a test using one is ours)
     swept: bool = False
+
+
 sigterm_key = pytest.StashKey[SigtermAsInterrupt]()
 
 
