@@ -5,11 +5,11 @@ from __future__ import annotations
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 from typing import Any
 
 import pytest
+from docker_helpers import wait_for
 
 # The host: a container participant that gets stuck in its step, then a step that never ends.
 HOST = """
@@ -41,7 +41,7 @@ def test_container_component_exits_when_its_host_dies_mid_step(
         run_id = host.stdout.readline().strip()
         assert run_id, "the host did not start its simulation"
         (container,) = engine.api.containers(filters={"label": f"multicosim.run={run_id}"})
-        assert _wait_for(lambda: "stuck at t=" in _logs(engine, container["Id"]))
+        assert wait_for(lambda: "stuck at t=" in _logs(engine, container["Id"]))
         host.send_signal(sig)
         host.wait(30)
         # Its watch notices the lost connection and ends the busy process; init follows.
@@ -51,7 +51,7 @@ def test_container_component_exits_when_its_host_dies_mid_step(
             seen.append(_logs(engine, container["Id"]))
             return _state(engine, container["Id"]) != "running"
 
-        assert _wait_for(ended), seen[-1]
+        assert wait_for(ended), seen[-1]
         # Another session on the engine may sweep the dead host's container at any time;
         # what it printed before was seen.
         assert any("the simulation host has gone" in text for text in seen) or (
@@ -84,12 +84,3 @@ def _state(engine: Any, container_id: str) -> str:
     except APIError:
         return "removed"
     return state
-
-
-def _wait_for(condition: Any, timeout: float = 60.0) -> bool:
-    deadline = time.monotonic() + timeout
-    while not condition():
-        if time.monotonic() > deadline:
-            return False
-        time.sleep(0.1)
-    return True

@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 import pytest
+from docker_helpers import wait_for
 
 import multicosim as mcs
 from multicosim.docker import ContainerComponent, ContainerLimits, ContainerSimulator
@@ -76,7 +77,7 @@ def test_limits_are_enforced(engine: Any, image: str) -> None:
         assert _wait_exit(hog_node) == 137  # killed by the memory limit
         assert "allocated" not in hog_node.logs()
         forks_node = simulation.get(forks)
-        assert _wait_for(lambda: "fork" in forks_node.logs().lower()), forks_node.logs()
+        assert wait_for(lambda: "fork" in forks_node.logs().lower()), forks_node.logs()
     finally:
         with pytest.raises(ExceptionGroup) as info:
             simulation.stop()  # the memory hog had exited: reported at stop, as any crash
@@ -84,20 +85,9 @@ def test_limits_are_enforced(engine: Any, image: str) -> None:
 
 
 def _wait_exit(node: Any, timeout: float = 60.0) -> int | None:
-    assert _wait_for(lambda: node.poll() is not None, timeout)
+    assert wait_for(lambda: node.poll() is not None, timeout)
     code: int | None = node.poll()
     return code
-
-
-def _wait_for(condition: Any, timeout: float = 60.0) -> bool:
-    import time
-
-    deadline = time.monotonic() + timeout
-    while not condition():
-        if time.monotonic() > deadline:
-            return False
-        time.sleep(0.1)
-    return True
 
 
 @pytest.mark.parametrize(
