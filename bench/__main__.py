@@ -185,6 +185,16 @@ def transport_rows(data: dict[str, Any]) -> list[Row]:
             ratio=st["ratio"],
         )
     )
+    if "ratio_curve" in st:
+        rows.append(
+            row(
+                "transport (process)",
+                "raw ROUTER-DEALER over CURVE / plain (the per-run token costs no crypto)",
+                f"{s['raw ROUTER/DEALER, CURVE']['median_us']:.0f} us / "
+                f"{s['raw ROUTER/DEALER']['median_us']:.0f} us",
+                ratio=st["ratio_curve"],
+            )
+        )
     rows.append(
         row(
             "transport (process)",

@@ -8,8 +8,9 @@ Measures, between two local processes on loopback:
   uses);
 * ``step``: one lockstep exchange (Step/Yield) of a process participant, driven by
   ``ProcessSimulation.advance(period)``, against a raw ROUTER/DEALER round trip of frames of
-  the same size, and against a raw pymavlink round trip over UDP (HIL_ACTUATOR_CONTROLS
-  out, HIL_SENSOR back: what the PX4 world and autopilot exchange every step);
+  the same size (also over CURVE: what encrypting every frame would cost), and against a
+  raw pymavlink round trip over UDP (HIL_ACTUATOR_CONTROLS out, HIL_SENSOR back: what the
+  PX4 world and autopilot exchange every step);
 * in-process: ``send`` to an in-process firmware and one lockstep step of an in-process
   participant, against a direct Python call of the same handler.
 
@@ -100,10 +101,18 @@ def _raw_server(kind: str) -> None:
             if msg is None:
                 return
             conn.mav.hil_sensor_send(msg.time_usec, *([0.1] * 13), 0x1FFF)
-    else:  # "dealer": connect to the host's ROUTER, say hello, then echo
+    else:  # "dealer": connect to the host's ROUTER (over CURVE if keys follow), hello, echo
         sock = ctx.socket(zmq.DEALER)
         sock.setsockopt(zmq.ROUTING_ID, b"raw")
-        sock.connect(sys.stdin.readline().strip())
+        address, *keys = sys.stdin.readline().split()
+        if keys:
+            server_public, public, secret = (k.encode() for k in keys)
+            sock.curve_serverkey, sock.curve_publickey, sock.curve_secretkey = (
+                server_public,
+                public,
+                secret,
+            )
+        sock.connect(address)
         sock.send(b"hello")
         while True:
             sock.send(sock.recv())
@@ -276,12 +285,25 @@ def bench_step(iterations: int, rounds: int) -> dict[str, Any]:
     port = router.bind_to_random_port("tcp://127.0.0.1")
     peer = RawPeer("dealer", f"tcp://127.0.0.1:{port}")
     ident, _hello = router.recv_multipart()
+    # The same pair over CURVE (per-run keys would be the alternative to the token the
+    # coordinator checks): what encrypting and authenticating every frame would cost.
+    server_public, server_secret = zmq.curve_keypair()
+    client_public, client_secret = zmq.curve_keypair()
+    curve = zctx.socket(zmq.ROUTER)
+    curve.curve_server = True
+    curve.curve_secretkey = server_secret
+    curve_port = curve.bind_to_random_port("tcp://127.0.0.1")
+    keys = b" ".join([server_public, client_public, client_secret]).decode()
+    curve_peer = RawPeer("dealer", f"tcp://127.0.0.1:{curve_port} {keys}")
+    curve_ident, _hello = curve.recv_multipart()
     try:
         mav = MavlinkPeer()
     except BaseException:
         router.close(0)
+        curve.close(0)
         zctx.term()
         peer.close()
+        curve_peer.close()
         raise
     step = wire.encoder.encode(wire.Step(10**9, []))
     yield_ = wire.encoder.encode(wire.Yield(10**9 + 10**6, [], []))
@@ -291,6 +313,10 @@ def bench_step(iterations: int, rounds: int) -> dict[str, Any]:
             def raw_exchange() -> list[bytes]:
                 router.send_multipart([ident, step])
                 return router.recv_multipart()
+
+            def curve_exchange() -> list[bytes]:
+                curve.send_multipart([curve_ident, step])
+                return curve.recv_multipart()
 
             def advance() -> None:
                 sim.advance(STEP_PERIOD)
@@ -302,6 +328,7 @@ def bench_step(iterations: int, rounds: int) -> dict[str, Any]:
             samples = run_rounds(
                 {
                     "raw ROUTER/DEALER": raw_exchange,
+                    "raw ROUTER/DEALER, CURVE": curve_exchange,
                     "raw pymavlink UDP": mav.round_trip,
                     "advance(period)": advance,
                     f"advance({BATCH} periods) / {BATCH}": advance_batch,
@@ -315,8 +342,10 @@ def bench_step(iterations: int, rounds: int) -> dict[str, Any]:
             batch[:] = [t // BATCH for t in batch]
     finally:
         router.close(0)
+        curve.close(0)
         zctx.term()
         peer.close()
+        curve_peer.close()
         mav.close()
     stats = {name: summary(s) for name, s in samples.items()}
     return {
@@ -329,6 +358,8 @@ def bench_step(iterations: int, rounds: int) -> dict[str, Any]:
         / stats["raw ROUTER/DEALER"]["median_us"],
         "ratio_vs_mavlink": stats["advance(period)"]["median_us"]
         / stats["raw pymavlink UDP"]["median_us"],
+        "ratio_curve": stats["raw ROUTER/DEALER, CURVE"]["median_us"]
+        / stats["raw ROUTER/DEALER"]["median_us"],
     }
 
 

@@ -48,6 +48,12 @@ def _build(factory: Callable[..., Any], config: str | None) -> Any:
     return factory(msgspec.json.decode(config.encode(), type=tp))
 
 
+def _port(text: str) -> int:
+    from ._runtime import port_argument
+
+    return port_argument(text)
+
+
 def _serve(args: argparse.Namespace) -> int:
     from ._runtime import Firmware, serve
 
@@ -108,7 +114,9 @@ def main(argv: list[str] | None = None) -> int:
 
     p = sub.add_parser("serve", help="serve a firmware until the simulation stops it")
     p.add_argument("target", help="MODULE:ATTRIBUTE of a @multicosim.firmware function")
-    p.add_argument("--port", type=int, default=0, help="port to serve on (0: any free port)")
+    p.add_argument(
+        "--port", type=_port, default=0, help="port to serve on: 1..65535, or 0 for any free port"
+    )
     p.add_argument(
         "--host", default=None, help="address to bind (default: $MCS_BIND_HOST or 127.0.0.1)"
     )

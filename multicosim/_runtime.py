@@ -17,9 +17,11 @@ from __future__ import annotations
 
 import hashlib
 import logging
+import math
 import os
 import signal
 import threading
+import time
 import traceback
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, Generic, Protocol, TypeVar, runtime_checkable
@@ -32,6 +34,7 @@ from ._errors import (
     ConfigurationError,
     MessageTypeError,
     MulticosimError,
+    NodeTimeoutError,
     SimulationStopped,
     TransportError,
 )
@@ -269,7 +272,9 @@ class Firmware(Generic[MsgT, ReplyT]):
         import argparse
 
         parser = argparse.ArgumentParser(prog=self.name, description=f"serve {self!r}")
-        parser.add_argument("--port", type=int, default=0, help="port to serve on (0: any)")
+        parser.add_argument(
+            "--port", type=port_argument, default=0, help="port to serve on (0: any)"
+        )
         parser.add_argument(
             "--host", default=default_bind_host(), help="address to bind (env MCS_BIND_HOST)"
         )
@@ -326,24 +331,40 @@ def handle_call(
 
 
 class Connection:
-    """A participant's socket to the coordinator (a DEALER named after the component)."""
+    """A component's socket to the coordinator (a DEALER whose identity is its token).
 
-    def __init__(self, address: str, name: str, zctx: zmq.Context[Any] | None = None) -> None:
+    ``own_process``: this process is the component (not a thread of the host), so it must
+    end when the host has gone, even in the middle of a step (see :class:`HostWatch`).
+    """
+
+    def __init__(
+        self,
+        address: str,
+        name: str,
+        zctx: zmq.Context[Any] | None = None,
+        *,
+        token: str | None = None,
+        own_process: bool = False,
+    ) -> None:
         import zmq
 
         self.name = name
         self._zctx = zctx or zmq.Context.instance()
         self.socket = self._zctx.socket(zmq.DEALER)
         self.socket.setsockopt(zmq.LINGER, 0)
-        self.socket.setsockopt(zmq.ROUTING_ID, name.encode())
+        # The coordinator admits only the identities it handed out (a secret token).
+        self.socket.setsockopt(zmq.ROUTING_ID, (token or name).encode())
         # Heartbeats notice a coordinator that vanished without closing its connection.
         self.socket.setsockopt(zmq.HEARTBEAT_IVL, 1000)
         self.socket.setsockopt(zmq.HEARTBEAT_TIMEOUT, 5000)
         # In a container the parent never changes (it is the init process), so a lost
         # connection is how a component learns that its host was killed.
-        self.monitor = self.socket.get_monitor_socket(zmq.EVENT_DISCONNECTED)
+        monitor = self.socket.get_monitor_socket(zmq.EVENT_DISCONNECTED)
         self.socket.connect(address)
-        self._ppid = os.getppid()
+        self.watch = HostWatch(name, monitor) if own_process else None
+        self._monitor = None if own_process else monitor
+        if self.watch is not None:
+            self.watch.start()
         # Socket.poll builds a Poller per call: keep one (a wait per lockstep step).
         self._poller = zmq.Poller()
         self._poller.register(self.socket, zmq.POLLIN)
@@ -367,14 +388,14 @@ class Connection:
         return frame
 
     def orphaned(self) -> bool:
-        """True once the host is gone: our parent changed or the coordinator disconnected."""
-        if os.getppid() != self._ppid:
-            return True
+        """True once the host is gone (the coordinator disconnected, or our parent changed)."""
+        if self.watch is not None:
+            return self.watch.gone.is_set()
         import zmq
         from zmq.utils.monitor import recv_monitor_message
 
-        while self.monitor.poll(0):
-            event = recv_monitor_message(self.monitor, zmq.NOBLOCK)
+        while self._monitor is not None and self._monitor.poll(0):
+            event = recv_monitor_message(self._monitor, zmq.NOBLOCK)
             if event["event"] == zmq.EVENT_DISCONNECTED:
                 return True
         return False
@@ -382,8 +403,62 @@ class Connection:
     def close(self) -> None:
         """Close the socket and its monitor."""
         self.socket.disable_monitor()
-        self.monitor.close(0)
+        if self.watch is not None:
+            self.watch.stop()
+        if self._monitor is not None:
+            self._monitor.close(0)
         self.socket.close(0)
+
+
+class HostWatch(threading.Thread):
+    """Ends this component process once its simulation host has gone, even mid-step.
+
+    A thread, so that it notices while the component computes a long step: the coordinator's
+    connection is lost (a host killed with SIGKILL, in a container too) or this process's
+    parent changed. An idle component notices by itself and exits cleanly
+    (``Connection.orphaned``); one still busy ``EXIT_GRACE`` seconds later exits at once.
+    On Linux a local component also gets SIGKILL when its host dies (the parent-death signal
+    the simulator sets), which makes this the second line of defence there.
+    """
+
+    EXIT_GRACE = 2.0
+    EXIT_CODE = 75  # EX_TEMPFAIL: not the component's fault
+
+    def __init__(self, name: str, monitor: zmq.Socket[Any]) -> None:
+        super().__init__(name=f"{name}-host-watch", daemon=True)
+        self.component = name
+        self.gone = threading.Event()
+        self._monitor = monitor
+        self._ppid = os.getppid()
+        self._stopped = threading.Event()
+
+    def run(self) -> None:
+        import zmq
+        from zmq.utils.monitor import recv_monitor_message
+
+        monitor = self._monitor
+        try:
+            while not self._stopped.is_set():
+                if monitor.poll(250):
+                    event = recv_monitor_message(monitor, zmq.NOBLOCK)
+                    if event["event"] == zmq.EVENT_DISCONNECTED:
+                        break
+                if os.getppid() != self._ppid:
+                    break
+            else:
+                return
+        finally:
+            monitor.close(0)
+        self.gone.set()
+        log.warning("%s: the simulation host has gone", self.component)
+        if self._stopped.wait(self.EXIT_GRACE):
+            return
+        log.warning("%s: still busy %g s later; exiting now", self.component, self.EXIT_GRACE)
+        os._exit(self.EXIT_CODE)
+
+    def stop(self) -> None:
+        """Stop watching (the component is closing its connection); returns at once."""
+        self._stopped.set()
 
 
 def _inbox(step: wire.Step) -> list[Delivery]:
@@ -419,15 +494,32 @@ class RemoteDriver:
 
 
 class LocalDriver:
-    """Drives an in-process firmware's clock by running the scheduler in the caller's thread."""
+    """Drives an in-process firmware's clock by running the scheduler in the caller's thread.
+
+    After :meth:`limit`, a step past the deadline raises NodeTimeoutError.
+    """
 
     def __init__(self, scheduler: Scheduler, member: Member) -> None:
         self.scheduler = scheduler
         self.member = member
+        self.deadline = math.inf
+        self.timeout = math.inf
+
+    def limit(self, timeout: float) -> float:
+        """Give the handler ``timeout`` wall-clock seconds from now; return the deadline."""
+        self.timeout = timeout
+        self.deadline = time.monotonic() + timeout
+        return self.deadline
 
     def _my_turn(self) -> tuple[int, list[Delivery]]:
         # Scheduler.run specialised to "until it is my turn": this driver is active, so the
         # clock runs, and the next member is found once per step instead of twice.
+        if time.monotonic() > self.deadline:
+            raise NodeTimeoutError(
+                self.member.name,
+                f"did not answer within {self.timeout:g} s (its handler was still stepping "
+                f"at t={self.scheduler.now_ns / 1e9:g} s of simulated time)",
+            )
         sched, me = self.scheduler, self.member
         next_member, step_member = sched.next_member, sched.step_member
         while (member := next_member()) is not me:
@@ -486,6 +578,35 @@ def _environment() -> tuple[str | None, str, int]:
     return address, name, seed
 
 
+def _token(address: str | None) -> str | None:
+    token = os.environ.get(wire.ENV_TOKEN) or None
+    if address is not None and token is None:
+        raise MulticosimError(
+            f"{wire.ENV_TOKEN} is not set: components join a simulation only when its "
+            "simulator starts them"
+        )
+    return token
+
+
+def port_argument(text: str) -> int:
+    """The type of a ``--port`` option: 0 (any free port) or 1..65535; nothing wraps around."""
+    import argparse
+
+    try:
+        return check_port_number(int(text))
+    except (ValueError, ConfigurationError):
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is not a port: expected 1..65535, or 0 for any free port"
+        ) from None
+
+
+def check_port_number(port: object) -> int:
+    """Return ``port`` if it is a TCP port a firmware can bind: 1..65535, or 0 for any."""
+    if isinstance(port, bool) or not isinstance(port, int) or not 0 <= port <= 65535:
+        raise ConfigurationError("port", port, "an integer in 1..65535, or 0 for any free port")
+    return port
+
+
 def _install_sigterm() -> None:
     # Python ignores SIGTERM as PID 1 in a container; turn it into a clean exit everywhere.
     if threading.current_thread() is threading.main_thread():
@@ -499,11 +620,12 @@ def run_participant(participant: Participant) -> None:
         raise MulticosimError(
             f"{wire.ENV_COORDINATOR} is not set: participants are started by a simulator"
         )
+    token = _token(address)
     _install_sigterm()
     ctx = StepContext(name, derive_seed(seed, name))
     participant.setup(ctx)
     period_ns = to_ns(participant.period)
-    conn = Connection(address, name)
+    conn = Connection(address, name, token=token, own_process=True)
     try:
         outbox, topics = ctx._take()
         conn.send(wire.Hello(name, period_ns, False, topics, os.getpid()))
@@ -530,31 +652,46 @@ def serve(
     stop: threading.Event | None = None,
     zctx: zmq.Context[Any] | None = None,
     environment: tuple[str | None, str, int] | None = None,
+    token: str | None = None,
 ) -> None:
     """Serve ``fw`` on ``host:port`` until the simulation stops it (or ``stop`` is set).
 
     Each call is decoded and validated against ``fw.msgtype``; the handler's return value is
     the reply, an exception becomes a RemoteError on the caller's side. Within a simulation
-    the firmware says hello to the coordinator, which is how the host knows it is ready.
+    the firmware says hello to the coordinator, which is how the host knows it is ready, and
+    answers only its host (calls must come from the identity ``token``, ``MCS_TOKEN`` by
+    default); other frames are dropped with a warning. ``port`` 0 binds any free port.
     """
     import zmq
 
-    address, name, seed = environment or _environment()
+    check_port_number(port)
+    if environment is None:
+        environment = _environment()
+        token = token or _token(environment[0])
+    address, name, seed = environment
     host = host or default_bind_host()
     if stop is None:
         _install_sigterm()
     zctx = zctx or zmq.Context.instance()
     rpc = zctx.socket(zmq.ROUTER)
-    rpc.setsockopt(zmq.LINGER, 0)
-    bound = rpc.bind_to_random_port(f"tcp://{host}") if port == 0 else None
-    if bound is None:
+    wire.listen_options(rpc)
+    if port == 0:
+        rpc.bind_to_random_port(f"tcp://{host}")
+    else:
         rpc.bind(f"tcp://{host}:{port}")
-        bound = port
-    conn = Connection(address, name, zctx) if address else None
+    endpoint = rpc.getsockopt_string(zmq.LAST_ENDPOINT)
+    bound = int(endpoint.rsplit(":", 1)[1])
+    where = f"firmware {name!r} at {endpoint}"
+    drops = wire.Drops(where, log)
+    refused = wire.HandshakeFailures(rpc, where, log)
+    caller = token.encode() if token else None
+    conn = (
+        Connection(address, name, zctx, token=token, own_process=stop is None) if address else None
+    )
     poller = zmq.Poller()
     poller.register(rpc, zmq.POLLIN)
     # Logged before the handshake, so that the line is in the log of every ready firmware.
-    log.info("%s serving %r on %s:%d", name, fw, host, bound)
+    log.info("%s serving %r on %s", name, fw, endpoint)
     if conn is not None:
         poller.register(conn.socket, zmq.POLLIN)
         conn.send(wire.Hello(name, fw.period_ns, True, [], os.getpid(), bound))
@@ -568,12 +705,10 @@ def serve(
                 if isinstance(frame, wire.Stop):
                     break
             if rpc in events:
-                ident, raw = rpc.recv_multipart()
-                try:
-                    request = wire.to_firmware.decode(raw)
-                except msgspec.DecodeError:
-                    log.warning("%s: ignored an undecodable request", name)
+                received = _receive_call(rpc, caller, drops)
+                if received is None:
                     continue
+                ident, request = received
                 if isinstance(request, wire.Ping):
                     answer: Any = wire.Pong(request.id, name, type_name(fw.msgtype))
                 else:
@@ -585,13 +720,34 @@ def serve(
             if (
                 stop is None
                 and not events
-                and (os.getppid() != ppid or (conn is not None and conn.orphaned()))
+                and (conn.orphaned() if conn is not None else os.getppid() != ppid)
             ):
                 log.info("%s: the simulation host has gone", name)
                 break
     except SimulationStopped as exc:
         log.info("%s", exc)
     finally:
+        refused.close()
         rpc.close(0)
         if conn is not None:
             conn.close()
+
+
+def _receive_call(
+    rpc: zmq.Socket[Any], caller: bytes | None, drops: wire.Drops
+) -> tuple[bytes, wire.Call | wire.Ping] | None:
+    """The next call on a firmware's socket, or None if it was dropped (and why is logged)."""
+    head, parts = wire.receive(rpc)
+    ident = head.bytes
+    if caller is not None and ident != caller:
+        drops.drop(wire.describe_peer(head), "not the simulation host")
+        return None
+    if len(parts) != 1:
+        drops.drop(wire.describe_peer(head), f"a message of {len(parts)} frames, not 1")
+        return None
+    try:
+        request: wire.Call | wire.Ping = wire.to_firmware.decode(parts[0])
+    except msgspec.DecodeError as exc:
+        drops.drop(wire.describe_peer(head), f"not a call ({exc})")
+        return None
+    return ident, request

@@ -113,15 +113,15 @@ def world_configs(
     integrator and solver listed and the fewest iterations (the cheapest to simulate).
     """
     from .mujoco import INTEGRATORS, SOLVERS, WorldConfig
-    from .mujoco._config import MAX_TIMESTEP
+    from .mujoco._config import MAX_ITERATIONS, MAX_TIMESTEP, MIN_TIMESTEP
 
     base = base if base is not None else WorldConfig()
-    lo, hi = check_range("timestep", timestep, low=0.0, high=MAX_TIMESTEP, low_open=True)
+    lo, hi = check_range("timestep", timestep, low=MIN_TIMESTEP, high=MAX_TIMESTEP)
     if hi > base.period:
         raise ConfigurationError(
             "timestep", timestep, f"timesteps <= the world's period ({base.period:g} s)"
         )
-    it_lo, it_hi = check_range("iterations", iterations, low=1, high=10_000, integer=True)
+    it_lo, it_hi = check_range("iterations", iterations, low=1, high=MAX_ITERATIONS, integer=True)
     integrator_choices = _choices("integrators", integrators, INTEGRATORS, base.integrator)
     solver_choices = _choices("solvers", solvers, SOLVERS, base.solver)
 

@@ -23,6 +23,7 @@ __all__ = [
     "Echo",
     "Misbehave",
     "Speed",
+    "Stuck",
     "drive",
     "echo",
     "misbehave",
@@ -69,6 +70,28 @@ class Cart:
         ctx.publish("state", CartState(x=self.x + noise, noise=noise))
 
 
+class Stuck:
+    """A participant that steps normally until ``at`` s, then computes forever inside its step.
+
+    It prints ``stuck at t=... (pid N)`` when it starts the endless step (a busy Python
+    loop: the process is running, not waiting), for tests of a host killed mid-step.
+    """
+
+    def __init__(self, at: float = 0.05, period: float = 0.01) -> None:
+        self.at = at
+        self.period = period
+
+    def setup(self, ctx: StepContext) -> None:
+        """Nothing to subscribe to."""
+
+    def step(self, ctx: StepContext) -> None:
+        """Return at once before ``at``; never return from then on."""
+        if ctx.time >= self.at:
+            print(f"stuck at t={ctx.time:g} (pid {os.getpid()})", flush=True)
+            while True:
+                pass
+
+
 class Drive(Message):
     """Drive the cart at ``speed`` for ``steps`` firmware periods."""
 
@@ -112,7 +135,11 @@ def echo(msg: Echo, ctx: FirmwareContext) -> Echo:
 
 
 class Misbehave(Message):
-    """Ask :func:`misbehave` to fail in a given way: raise, exit or hang."""
+    """Ask :func:`misbehave` to fail in a given way.
+
+    ``how``: ``raise``; ``exit`` with ``code``; ``hang`` (sleep) or ``spin`` (a busy Python
+    loop) for ``seconds``; ``step`` (keep stepping the clock, forever); anything else answers.
+    """
 
     how: str
     code: int = 3
@@ -129,4 +156,11 @@ def misbehave(msg: Misbehave, ctx: FirmwareContext) -> str:
         os._exit(msg.code)
     if msg.how == "hang":
         time.sleep(msg.seconds)
+    if msg.how == "spin":
+        end = time.monotonic() + msg.seconds
+        while time.monotonic() < end:
+            pass
+    if msg.how == "step":
+        while True:
+            ctx.step()
     return msg.how

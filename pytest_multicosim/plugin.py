@@ -19,6 +19,7 @@ import os
 import re
 import shlex
 import shutil
+import tempfile
 from collections.abc import Generator, Iterator
 from pathlib import Path
 from typing import Any, TypeVar
@@ -26,6 +27,8 @@ from typing import Any, TypeVar
 import pytest
 
 from multicosim._errors import MulticosimError
+
+from ._signals import SigtermAsInterrupt
 
 __all__ = [
     "BACKENDS",
@@ -42,6 +45,7 @@ log = logging.getLogger(__name__)
 FIDELITY_LEVELS = ("low", "medium", "high")
 BACKENDS = ("process", "docker")
 KEEP_TRACES = ("failed", "all", "none")
+_ARTIFACTS_DEFAULT = "mcs-artifacts"
 FIXTURE_LIBRARIES = (
     "pytest_multicosim.rover",
     "pytest_multicosim.px4",
@@ -92,6 +96,9 @@ class _Activity:
     explicit: bool  # an --mcs-* option was given: act for every test
     fixtures: frozenset[str]  # the fixtures we provide (a test using one is ours)
     swept: bool = False
+
+
+sigterm_key = pytest.StashKey[SigtermAsInterrupt]()
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:
@@ -150,7 +157,7 @@ def pytest_addoption(parser: pytest.Parser) -> None:
     parser.addini("mcs_fidelity", "default for --mcs-fidelity", default="low")
     parser.addini("mcs_backend", "default for --mcs-backend", default="process")
     parser.addini("mcs_seed", "default for --mcs-seed", default="0")
-    parser.addini("mcs_artifacts", "default for --mcs-artifacts", default="mcs-artifacts")
+    parser.addini("mcs_artifacts", "default for --mcs-artifacts", default=_ARTIFACTS_DEFAULT)
     parser.addini("mcs_keep_traces", "default for --mcs-keep-traces", default="failed")
     parser.addini("mcs_px4_image", "default for --mcs-px4-image", default="")
     parser.addini("mcs_px4_binary", "default for --mcs-px4-binary", default="")
@@ -177,6 +184,25 @@ def parse_fidelity(text: str, source: str = "--mcs-fidelity") -> tuple[str, ...]
             f"allowed: {', '.join(FIDELITY_LEVELS)} (or a comma list of them)"
         )
     return tuple(dict.fromkeys(levels))
+
+
+def _unwritable(path: Path) -> str | None:
+    """Why ``path`` cannot be (or become) a writable directory, or None if it can.
+
+    Probes by creating (and removing) a directory where it would be written, which also
+    catches read-only file systems and what permission bits do not show.
+    """
+    existing = path
+    while not existing.exists() and existing.parent != existing:
+        existing = existing.parent
+    if not existing.is_dir():
+        return f"{existing} is not a directory"
+    try:
+        probe = tempfile.mkdtemp(prefix=".mcs-probe-", dir=existing)
+    except OSError as exc:
+        return f"cannot write in {existing} ({exc.strerror or exc})"
+    os.rmdir(probe)
+    return None
 
 
 def _settings(config: pytest.Config) -> Settings:
@@ -210,6 +236,14 @@ def _settings(config: pytest.Config) -> Settings:
         else:
             base = config.inipath.parent if config.inipath is not None else config.rootpath
         artifacts = base / artifacts
+    if source.startswith("--") or artifacts_text != _ARTIFACTS_DEFAULT:
+        # Given on purpose: refuse now what would silently lose traces and logs later.
+        problem = _unwritable(artifacts)
+        if problem is not None:
+            raise pytest.UsageError(
+                f"{source}: {artifacts_text!r} cannot hold traces and logs: {problem}; "
+                "allowed: a directory this user can write, or one that can be created"
+            )
     ray, source = _value(config, "mcs_ray")
     if ray and importlib.util.find_spec("ray") is None:
         raise pytest.UsageError(
@@ -237,6 +271,7 @@ def pytest_configure(config: pytest.Config) -> None:
         explicit=any(config.getoption(dest) is not None for dest in OPTION_DESTS),
         fixtures=_our_fixtures(),
     )
+    config.stash[sigterm_key] = SigtermAsInterrupt()
     # Safety net for interpreter exits that bypass fixture teardown.
     atexit.register(registry.stop_all)
 
@@ -267,6 +302,9 @@ def acts_for(item: pytest.Item) -> bool:
 
 
 def pytest_unconfigure(config: pytest.Config) -> None:
+    sigterm = config.stash.get(sigterm_key, None)
+    if sigterm is not None:
+        sigterm.uninstall()
     registry = config.stash.get(registry_key, None)
     if registry is not None:
         registry.stop_all()
@@ -475,7 +513,11 @@ class _TestSimulations:
 
 @pytest.fixture
 def mcs_simulations(request: pytest.FixtureRequest) -> Iterator[_TestSimulations]:
-    """Starts simulations for the test and stops them at teardown, even after a failure."""
+    """Starts simulations for the test and stops them at teardown, even after a failure.
+
+    From the first use on, SIGTERM stops the run as Ctrl-C does, with teardown.
+    """
+    request.config.stash[sigterm_key].install()
     view = _TestSimulations(request.config.stash[registry_key])
     request.node.stash[_view_key] = view
     try:

@@ -15,7 +15,8 @@ import pytest
 
 import multicosim as mcs
 from multicosim import testing
-from multicosim._local import FirmwareNode, _process_run_id, sweep_stale_runs
+from multicosim._local import FirmwareNode, sweep_stale_runs
+from multicosim._rundirs import _process_run_id
 
 CART = "python -m multicosim participant multicosim.testing:Cart"
 DRIVE = "python -m multicosim serve multicosim.testing:drive --port {port}"

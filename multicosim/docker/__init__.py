@@ -15,6 +15,7 @@ _LAZY = {
     "ContainerComponent": "._components",
     "ContainerEnvironment": "._components",
     "ContainerFirmwareNode": "._components",
+    "ContainerLimits": "._components",
     "ContainerNode": "._components",
     "FirmwareComponent": "._components",
     "ContainerSimulation": "._simulator",
@@ -41,6 +42,7 @@ __all__ = [
     "ContainerComponent",
     "ContainerEnvironment",
     "ContainerFirmwareNode",
+    "ContainerLimits",
     "ContainerNode",
     "ContainerSimulation",
     "ContainerSimulator",
@@ -60,6 +62,7 @@ if TYPE_CHECKING:
     from ._components import ContainerComponent as ContainerComponent
     from ._components import ContainerEnvironment as ContainerEnvironment
     from ._components import ContainerFirmwareNode as ContainerFirmwareNode
+    from ._components import ContainerLimits as ContainerLimits
     from ._components import ContainerNode as ContainerNode
     from ._components import FirmwareComponent as FirmwareComponent
     from ._engine import EngineUnavailableError as EngineUnavailableError

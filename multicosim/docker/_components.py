@@ -2,7 +2,9 @@
 FirmwareComponent, and the environment a ContainerSimulator gives them.
 
 Every container runs with an init process (so it stops at once on SIGTERM), carries the run's
-labels (so a sweep can remove it if its host dies) and is removed when its node stops.
+labels (so a sweep can remove it if its host dies) and is removed when its node stops. It runs
+as a non-root user, without capabilities, within memory and process limits
+(:class:`ContainerLimits`), on its simulation's network only.
 Programs inside reach the host's lockstep coordinator at the network's gateway address; the
 host reaches a firmware through its port published on a random loopback port.
 """
@@ -22,18 +24,19 @@ from typing import Any, Generic, Literal, Protocol, TypeVar
 
 from .. import _wire as wire
 from .._clock import Scheduler
+from .._environment import LocalEnvironment
 from .._errors import ConfigurationError, NodeCrashedError, NodeStartError, NodeTimeoutError
+from .._firmware import FirmwareNode, check_types
 from .._interfaces import Node
-from .._local import (
+from .._processes import split_command
+from .._rundirs import start_time
+from .._waits import (
     DEFAULT_SEND_TIMEOUT,
     DEFAULT_START_TIMEOUT,
-    FirmwareNode,
-    LocalEnvironment,
-    _check_positive,
-    _check_types,
-    _split_command,
+    DEFAULT_STEP_TIMEOUT,
+    check_timeout,
 )
-from ._engine import APIError, NotFound, _start_time, labels, require_image
+from ._engine import LABEL_COMPONENT, APIError, NotFound, labels, require_image
 
 __all__ = [
     "AttachedComponent",
@@ -41,6 +44,7 @@ __all__ = [
     "ContainerComponent",
     "ContainerEnvironment",
     "ContainerFirmwareNode",
+    "ContainerLimits",
     "ContainerNode",
     "FirmwareComponent",
 ]
@@ -76,9 +80,15 @@ class ContainerEnvironment(LocalEnvironment):
         network: str,
         gateway: str,
         keep_logs: bool = False,
+        step_timeout: float = DEFAULT_STEP_TIMEOUT,
     ) -> None:
         super().__init__(
-            run_id=run_id, run_dir=run_dir, seed=seed, scheduler=scheduler, coordinator_host=gateway
+            run_id=run_id,
+            run_dir=run_dir,
+            seed=seed,
+            scheduler=scheduler,
+            coordinator_host=gateway,
+            step_timeout=step_timeout,
         )
         self.client = client
         self.network = network
@@ -128,7 +138,7 @@ class ContainerNode:
         # a firmware round trip. A local engine's containers are host processes: watch the
         # init process's /proc entry (with its start time, so a recycled pid is not mistaken).
         if pid > 0 and _engine_is_local():
-            start = _start_time(pid)
+            start = start_time(pid)
             if start is not None:
                 self._pid_stat = (pid, start)
 
@@ -142,7 +152,7 @@ class ContainerNode:
             if now - self._checked < 0.02:
                 return None
             pid, start = self._pid_stat
-            if _start_time(pid) == start:
+            if start_time(pid) == start:
                 self._checked = now
                 return None
             self._pid_stat = None  # gone: ask the engine for the exit code
@@ -265,11 +275,78 @@ def _check_image(image: object) -> None:
         raise ConfigurationError("image", image, "a local image name such as 'name:tag'")
 
 
+def _check_limits(limits: object) -> None:
+    if not isinstance(limits, ContainerLimits):
+        raise ConfigurationError("limits", limits, "a ContainerLimits")
+
+
 def _check_env(env: object) -> None:
     if not isinstance(env, Mapping) or not all(
         isinstance(k, str) and isinstance(v, str) for k, v in env.items()
     ):
         raise ConfigurationError("env", env, "a mapping of str to str")
+
+
+NONROOT_USER = "10001:10001"
+"""The user (uid:gid) component containers run as unless told otherwise: not root, and not
+a user of the host (the runtime image names it ``multicosim``)."""
+
+_MEMORY = re.compile(r"(\d+)([bkmg]?)", re.IGNORECASE)
+_UNITS = {"": 1, "b": 1, "k": 1 << 10, "m": 1 << 20, "g": 1 << 30}
+_MIN_MEMORY = 6 << 20  # the engine refuses less
+
+
+@dataclasses.dataclass(frozen=True)
+class ContainerLimits:
+    """What a component's container may use, and as whom it runs.
+
+    ``user`` runs its program (``"uid:gid"`` or a name; None: the image's own user, which is
+    often root); ``memory`` caps its memory, swap included (bytes, or ``"512m"``, ``"2g"``);
+    ``pids`` caps its processes and threads (a fork bomb stops there). Whatever the limits,
+    every container drops all Linux capabilities, cannot gain privileges
+    (``no-new-privileges``), runs an init process, carries the run's labels, and joins only
+    its simulation's network (never the host's).
+    """
+
+    user: str | None = NONROOT_USER
+    memory: int | str = "2g"
+    pids: int = 512
+
+    def __post_init__(self) -> None:
+        if self.user is not None and (
+            not isinstance(self.user, str) or not self.user or any(c.isspace() for c in self.user)
+        ):
+            raise ConfigurationError("user", self.user, "None, 'uid:gid' or a user name")
+        if _memory_bytes(self.memory) is None:
+            raise ConfigurationError(
+                "memory", self.memory, "bytes (an integer >= 6 MiB) or a size like '512m', '2g'"
+            )
+        if isinstance(self.pids, bool) or not isinstance(self.pids, int) or self.pids < 16:
+            raise ConfigurationError("pids", self.pids, "an integer >= 16")
+
+    def host_config(self) -> dict[str, Any]:
+        """The engine's HostConfig settings these limits (and the fixed hardening) make."""
+        memory = _memory_bytes(self.memory)
+        return {
+            "init": True,
+            "cap_drop": ["ALL"],
+            "security_opt": ["no-new-privileges:true"],
+            "pids_limit": self.pids,
+            "mem_limit": memory,
+            "memswap_limit": memory,  # no swap beyond the memory limit
+        }
+
+
+def _memory_bytes(value: object) -> int | None:
+    if isinstance(value, bool):
+        return None
+    if isinstance(value, int):
+        size = value
+    elif isinstance(value, str) and (found := _MEMORY.fullmatch(value.strip())):
+        size = int(found.group(1)) * _UNITS[found.group(2).lower()]
+    else:
+        return None
+    return size if size >= _MIN_MEMORY else None
 
 
 def _launch(
@@ -284,6 +361,7 @@ def _launch(
     handshake: bool,
     start_timeout: float,
     stop_timeout: float,
+    limits: ContainerLimits,
 ) -> tuple[ContainerNode, wire.Hello | None]:
     """Create and start one container; wait for its hello; clean it up if anything fails."""
     api = environment.client.api
@@ -298,9 +376,9 @@ def _launch(
         network_mode = f"container:{share_with.id}"
         networking = None
     host_config = api.create_host_config(
-        init=True,
         network_mode=network_mode,
         port_bindings={key: ("127.0.0.1", hp) for key, hp in publish.items()} or None,
+        **limits.host_config(),
     )
     order = environment.next_order()
     try:
@@ -309,7 +387,8 @@ def _launch(
             command=args,
             name=cname,
             environment={**environment.component_env(name), **env},
-            labels=environment.labels,
+            labels={**environment.labels, LABEL_COMPONENT: name},
+            user=limits.user,
             ports=[(int(k.split("/")[0]), k.split("/")[1]) for k in publish] or None,
             host_config=host_config,
             networking_config=networking,
@@ -382,19 +461,21 @@ class ContainerComponent:
     ready: Literal["handshake", "started"] = "handshake"
     start_timeout: float = DEFAULT_START_TIMEOUT
     stop_timeout: float = DEFAULT_STOP_TIMEOUT
+    limits: ContainerLimits = ContainerLimits()
 
     def __post_init__(self) -> None:
         _check_image(self.image)
-        args = _split_command(self.command)
+        args = split_command(self.command)
         _check_env(self.env)
+        _check_limits(self.limits)
         if isinstance(self.ports, str | int):
             raise ConfigurationError("ports", self.ports, "a sequence of ports, e.g. (14540,)")
         for port in self.ports:
             _port_key(port)
         if self.ready not in ("handshake", "started"):
             raise ConfigurationError("ready", self.ready, "'handshake' or 'started'")
-        _check_positive("start_timeout", self.start_timeout)
-        _check_positive("stop_timeout", self.stop_timeout)
+        check_timeout("start_timeout", self.start_timeout)
+        check_timeout("stop_timeout", self.stop_timeout)
         if self.name is None:
             object.__setattr__(self, "name", _default_name(args, self.image))
 
@@ -414,13 +495,14 @@ class ContainerComponent:
             environment,
             name=self.name,
             image=self.image,
-            args=_split_command(self.command),
+            args=split_command(self.command),
             env=self.env,
             publish={_port_key(p): None for p in self.ports},
             share_with=share,
             handshake=self.ready == "handshake",
             start_timeout=self.start_timeout,
             stop_timeout=self.stop_timeout,
+            limits=self.limits,
         )
         return node
 
@@ -451,6 +533,7 @@ class ContainerFirmwareNode(FirmwareNode[MsgT, ReplyT]):
             environment=environment,
             on_stop=container.stop,
             zctx=environment.zctx,
+            token=environment.coordinator.token(container.name),
         )
         self.container = container
         self.host_port = host_port
@@ -477,10 +560,12 @@ class FirmwareComponent(Generic[MsgT, ReplyT]):
     timeout: float = DEFAULT_SEND_TIMEOUT
     start_timeout: float = DEFAULT_START_TIMEOUT
     stop_timeout: float = DEFAULT_STOP_TIMEOUT
+    limits: ContainerLimits = ContainerLimits()
 
     def __post_init__(self) -> None:
         _check_image(self.image)
-        args = _split_command(self.command)
+        args = split_command(self.command)
+        _check_limits(self.limits)
         for field in ("port", "host_port"):
             value = getattr(self, field)
             if (value is not None or field == "port") and (
@@ -488,10 +573,10 @@ class FirmwareComponent(Generic[MsgT, ReplyT]):
             ):
                 allowed = "an integer port in 1..65535" + (", or None" if field != "port" else "")
                 raise ConfigurationError(field, value, allowed)
-        _check_types(self.msgtype, self.replytype)
+        check_types(self.msgtype, self.replytype)
         _check_env(self.env)
         for field in ("timeout", "start_timeout", "stop_timeout"):
-            _check_positive(field, getattr(self, field))
+            check_timeout(field, getattr(self, field))
         if self.name is None:
             object.__setattr__(self, "name", _default_name(args, self.image))
 
@@ -502,7 +587,7 @@ class FirmwareComponent(Generic[MsgT, ReplyT]):
     def start(self, environment: ContainerEnvironment) -> ContainerFirmwareNode[MsgT, ReplyT]:
         """Start the container, wait for its handshake and its answer through the port."""
         assert self.name is not None
-        args = [a.replace("{port}", str(self.port)) for a in _split_command(self.command)]
+        args = [a.replace("{port}", str(self.port)) for a in split_command(self.command)]
         key = f"{self.port}/tcp"
         container, _ = _launch(
             environment,
@@ -515,6 +600,7 @@ class FirmwareComponent(Generic[MsgT, ReplyT]):
             handshake=True,
             start_timeout=self.start_timeout,
             stop_timeout=self.stop_timeout,
+            limits=self.limits,
         )
         node: ContainerFirmwareNode[MsgT, ReplyT] = ContainerFirmwareNode(
             container,

@@ -9,14 +9,17 @@ import uuid
 from typing import Any
 
 from .._errors import DependencyMissingError, MulticosimError, NodeStartError
+from .._rundirs import boot_id, start_time
 
 try:
     import docker
     import docker.errors
+    from docker.errors import APIError, ImageNotFound, NotFound
 except ImportError as exc:  # pragma: no cover - exercised only without the extra
     raise DependencyMissingError("docker", "docker") from exc
 
 __all__ = [
+    "LABEL_COMPONENT",
     "LABEL_OWNER",
     "LABEL_RUN",
     "LABEL_SESSION",
@@ -33,15 +36,14 @@ __all__ = [
     "session_id",
 ]
 
-# The SDK's exceptions, for the other modules (which must not import the SDK before this
-# module has turned its absence into a DependencyMissingError).
-APIError = docker.errors.APIError
-NotFound = docker.errors.NotFound
-ImageNotFound = docker.errors.ImageNotFound
+# APIError, NotFound and ImageNotFound (imported above) are the SDK's exceptions for the
+# other modules, which must not import the SDK before this module has turned its absence
+# into a DependencyMissingError.
 
 LABEL_RUN = "multicosim.run"
 LABEL_SESSION = "multicosim.session"
 LABEL_OWNER = "multicosim.owner"
+LABEL_COMPONENT = "multicosim.component"  # on containers: the component's name
 
 _START_HINT = (
     "start it with `sudo setsid nohup dockerd >/tmp/dockerd.log 2>&1 </dev/null &` "
@@ -120,28 +122,9 @@ def session_id() -> str:
     return uuid.uuid4().hex[:16]
 
 
-def _boot_id() -> str:
-    try:
-        with open("/proc/sys/kernel/random/boot_id") as f:
-            return f.read().strip()
-    except OSError:
-        return "unknown"
-
-
-def _start_time(pid: int) -> str | None:
-    # Field 22 of /proc/PID/stat (after the parenthesised command name, which may contain
-    # spaces): the process start time, which tells a recycled pid from the original.
-    try:
-        with open(f"/proc/{pid}/stat") as f:
-            stat = f.read()
-    except OSError:
-        return None
-    return stat.rsplit(")", 1)[1].split()[19]
-
-
 @functools.cache
 def _owner_for(pid: int) -> str:
-    return f"{socket.gethostname()}/{_boot_id()}/{pid}/{_start_time(pid) or '?'}"
+    return f"{socket.gethostname()}/{boot_id()}/{pid}/{start_time(pid) or '?'}"
 
 
 def owner_id() -> str:
@@ -158,9 +141,9 @@ def owner_alive(owner: str) -> bool | None:
         return None
     if host != socket.gethostname():
         return None
-    if boot != _boot_id():
+    if boot != boot_id():
         return False  # the machine rebooted since
-    return _start_time(pid) == start
+    return start_time(pid) == start
 
 
 def labels(run_id: str) -> dict[str, str]:

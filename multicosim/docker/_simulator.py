@@ -9,7 +9,8 @@ from typing import Any, TypeVar
 from .._clock import Scheduler
 from .._errors import MulticosimError
 from .._interfaces import Node
-from .._local import LocalSimulatorBase, ProcessSimulation, _remove_tree
+from .._rundirs import remove_tree
+from .._simulators import LocalSimulatorBase, ProcessSimulation
 from ._components import ContainerEnvironment, ContainerNode
 from ._engine import LABEL_RUN, APIError, NotFound, client, labels, require_image
 
@@ -79,7 +80,7 @@ class ContainerSimulator(LocalSimulatorBase[ContainerEnvironment]):
         try:
             network = api.create_network(run_id, driver="bridge", labels=labels(run_id))
         except APIError as exc:
-            _remove_tree(run_dir)
+            remove_tree(run_dir)
             raise MulticosimError(
                 f"could not create the simulation's network: {exc.explanation or exc}; if "
                 "Docker's address pools are exhausted, `python -m multicosim.docker sweep` "
@@ -97,6 +98,7 @@ class ContainerSimulator(LocalSimulatorBase[ContainerEnvironment]):
                 network=run_id,
                 gateway=gateway.split("/")[0],
                 keep_logs=self.run_dir is not None,
+                step_timeout=self.step_timeout,
             )
         except BaseException:
             api.remove_network(network["Id"])

@@ -35,8 +35,12 @@ DEFAULT_HOME = Home()
 # Earth's field near that home (ENU frame, tesla): about 21.5 uT north, 43 uT down.
 DEFAULT_MAGNETIC_FIELD = (0.0, 2.15e-5, -4.3e-5)
 
+# Beyond these a world would only fail once running: a period of 10^7 MuJoCo steps outlasts
+# any step timeout, and MuJoCo keeps ``iterations`` in a C int.
+MIN_TIMESTEP = 1e-4
 MAX_TIMESTEP = 0.1
 MAX_NOISE = 10.0
+MAX_ITERATIONS = 1000
 
 
 def _number(field: str, value: object) -> float:
@@ -49,7 +53,8 @@ def _number(field: str, value: object) -> float:
 class WorldConfig:
     """How the physics world is simulated; validated on construction.
 
-    ``timestep`` is MuJoCo's integration step (0 < timestep <= 0.1 s); ``period`` is how
+    ``timestep`` is MuJoCo's integration step (1e-4 <= timestep <= 0.1 s), ``iterations``
+    its solver's iteration limit (1 to 1000); ``period`` is how
     often the world exchanges messages (publishes sensors, reads actuator commands): the
     world integrates ``period / timestep`` MuJoCo steps in one batch between exchanges.
     ``sensor_topics`` maps a sensor's name to the topic it is published on instead of its
@@ -71,8 +76,10 @@ class WorldConfig:
 
     def __post_init__(self) -> None:
         timestep = _number("timestep", self.timestep)
-        if not 0.0 < timestep <= MAX_TIMESTEP:
-            raise ConfigurationError("timestep", self.timestep, f"0 < timestep <= {MAX_TIMESTEP} s")
+        if not MIN_TIMESTEP <= timestep <= MAX_TIMESTEP:
+            raise ConfigurationError(
+                "timestep", self.timestep, f"{MIN_TIMESTEP:g} <= timestep <= {MAX_TIMESTEP:g} s"
+            )
         if self.integrator not in INTEGRATORS:
             raise ConfigurationError("integrator", self.integrator, f"one of {INTEGRATORS}")
         if self.solver not in SOLVERS:
@@ -80,9 +87,11 @@ class WorldConfig:
         if (
             isinstance(self.iterations, bool)
             or not isinstance(self.iterations, int)
-            or self.iterations < 1
+            or not 1 <= self.iterations <= MAX_ITERATIONS
         ):
-            raise ConfigurationError("iterations", self.iterations, "an integer >= 1")
+            raise ConfigurationError(
+                "iterations", self.iterations, f"an integer in 1..{MAX_ITERATIONS}"
+            )
         period = _number("period", self.period)
         if not timestep <= period <= 1.0:
             raise ConfigurationError(

@@ -21,6 +21,8 @@ from ._kinematic import KinematicWorld, kinematic_world
 from ._messages import (
     ABORT_TOPIC,
     COMMAND_TOPIC,
+    MAX_DISTANCE,
+    MAX_MISSION_TIME,
     MAX_SPEED,
     MAX_STEERING,
     SENSOR_TOPICS,
@@ -67,6 +69,8 @@ __all__ = [
     "COMMAND_TOPIC",
     "CONTROLLER_COMMAND",
     "FIDELITIES",
+    "MAX_DISTANCE",
+    "MAX_MISSION_TIME",
     "MAX_SPEED",
     "MAX_STEERING",
     "SENSOR_TOPICS",

@@ -17,6 +17,8 @@ from .._messages import Message
 __all__ = [
     "ABORT_TOPIC",
     "COMMAND_TOPIC",
+    "MAX_DISTANCE",
+    "MAX_MISSION_TIME",
     "MAX_SPEED",
     "MAX_STEERING",
     "SENSOR_TOPICS",
@@ -44,6 +46,10 @@ ABORT_TOPIC = "rover/abort"
 
 MAX_SPEED = 10.0  # m/s, what the drive can reach
 MAX_STEERING = 0.5  # rad, the bicycle-model steering angle at full lock
+# A mission's time and distances are bounded as PX4's time_limit is: what a controller
+# records (its trajectory grows with the mission) and how long a send runs stay bounded.
+MAX_MISSION_TIME = 3600.0  # s
+MAX_DISTANCE = 10_000.0  # m, a leg of the mission
 
 
 class Position(Message):
@@ -145,9 +151,18 @@ class Mission(Message):
                 _finite(self.turn_speed) and 0 < self.turn_speed <= MAX_SPEED,
                 f"None or 0 < turn_speed <= {MAX_SPEED} m/s",
             )
-        for field in ("wait", "distance", "final_distance"):
+        for field, limit, unit in (
+            ("wait", MAX_MISSION_TIME, "s"),
+            ("distance", MAX_DISTANCE, "m"),
+            ("final_distance", MAX_DISTANCE, "m"),
+        ):
             value = getattr(self, field)
-            _check(field, value, _finite(value) and value >= 0, "a distance or time >= 0")
+            _check(
+                field,
+                value,
+                _finite(value) and 0 <= value <= limit,
+                f"0 <= {field} <= {limit:g} {unit}",
+            )
         _check(
             "turn_angle",
             self.turn_angle,
@@ -168,13 +183,18 @@ class Mission(Message):
         )
         for field in ("turn_timeout", "timeout"):
             value = getattr(self, field)
-            _check(field, value, _finite(value) and value > 0, "a positive number of seconds")
+            _check(
+                field,
+                value,
+                _finite(value) and 0 < value <= MAX_MISSION_TIME,
+                f"0 < {field} <= {MAX_MISSION_TIME:g} s",
+            )
         if self.abort_at is not None:
             _check(
                 "abort_at",
                 self.abort_at,
-                _finite(self.abort_at) and self.abort_at >= 0,
-                "None or a time >= 0 s after the start",
+                _finite(self.abort_at) and 0 <= self.abort_at <= MAX_MISSION_TIME,
+                f"None or 0 <= abort_at <= {MAX_MISSION_TIME:g} s after the start",
             )
         _check(
             "rate",

@@ -174,6 +174,9 @@ def test_container_component_publishes_ports_on_loopback(engine: Any, image: str
         assert node.host_port("6000/tcp") == port
         sock: zmq.Socket[bytes] = zmq.Context.instance().socket(zmq.DEALER)
         sock.setsockopt(zmq.LINGER, 0)
+        # A firmware in a simulation answers only callers that present its component's token.
+        token = simulation.environment.coordinator.token("echo")
+        sock.setsockopt(zmq.ROUTING_ID, token.encode())
         try:
             sock.connect(f"tcp://127.0.0.1:{port}")
             sock.send(wire.encoder.encode(wire.Ping(1)))

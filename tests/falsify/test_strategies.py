@@ -18,10 +18,10 @@ from multicosim.mujoco import WorldConfig
     ("kwargs", "field", "match"),
     [
         ({"timestep": (0.01, 0.001)}, "timestep", "inverted"),
-        ({"timestep": (0.0, 0.01)}, "timestep", r"inside \(0, 0.1\]"),
-        ({"timestep": (0.001, 0.5)}, "timestep", r"inside \(0, 0.1\]"),
+        ({"timestep": (0.0, 0.01)}, "timestep", r"inside \[0.0001, 0.1\]"),
+        ({"timestep": (0.001, 0.5)}, "timestep", r"inside \[0.0001, 0.1\]"),
         ({"timestep": (0.001, 0.05)}, "timestep", "period"),
-        ({"iterations": (0, 10)}, "iterations", r"integers .* inside \[1, 10000\]"),
+        ({"iterations": (0, 10)}, "iterations", r"integers .* inside \[1, 1000\]"),
         ({"iterations": (20, 10)}, "iterations", "inverted"),
         ({"iterations": (1.5, 10)}, "iterations", "integers"),
         ({"integrators": ["RK5"]}, "integrators", "drawn from"),

@@ -755,16 +755,26 @@ def test_xdist_parallel_simulations(
 
 
 KILLED_HOST = """
+import shlex
 import sys
 import time
 import mcs_programs
 import multicosim as mcs
 
+# The shell's background child stays in the component's process group but is not the
+# simulator's child: only a sweep removes it once the host is gone.
+grandchild = f"{shlex.quote(sys.executable)} -c 'import time; time.sleep(600)'"
 simulator = mcs.ProcessSimulator()
-sleeper = simulator.add(mcs_programs.sleeper_component())
+shell = simulator.add(
+    mcs.ProcessComponent(
+        ["sh", "-c", f"{grandchild} & echo $! > {sys.argv[1]}.child; wait"],
+        name="shell",
+        ready="started",
+    )
+)
 echo = simulator.add(mcs_programs.echo_component())
 sim = simulator.start()
-pids = [sim.get(sleeper).pid, sim.get(echo).send(mcs_programs.Req(n=1)).pid]
+pids = [sim.get(shell).pid, sim.get(echo).send(mcs_programs.Req(n=1)).pid]
 with open(sys.argv[1] + ".tmp", "w") as f:
     f.write("\\n".join(map(str, pids)))
 import os
@@ -774,28 +784,33 @@ time.sleep(600)
 
 
 @pytest.mark.usefixtures("programs")
-def test_new_session_sweeps_what_a_killed_run_left(
+def test_killed_host_takes_its_components_along_and_a_new_session_sweeps_the_rest(
     pytester: pytest.Pytester, reaper: list[int], isolated_runs: Path
 ) -> None:
     script = pytester.makepyfile(killed_host=KILLED_HOST)
     pid_file = pytester.path / "pids"
+    child_file = pytester.path / "pids.child"
     host = subprocess.Popen([sys.executable, str(script), str(pid_file)], cwd=pytester.path)
     try:
         deadline = time.monotonic() + 30
-        while not pid_file.exists() and host.poll() is None and time.monotonic() < deadline:
+        while not (pid_file.exists() and child_file.exists()) and time.monotonic() < deadline:
+            assert host.poll() is None, "the host script failed"
             time.sleep(0.05)
-        sleeper, echo = read_pids(pid_file)
-        reaper.extend([sleeper, echo])
+        shell, echo = read_pids(pid_file)
+        (grandchild,) = read_pids(child_file)
+        reaper.extend([shell, echo, grandchild])
     finally:
         host.kill()  # SIGKILL: no teardown, no atexit, nothing runs in the host
         host.wait()
-    assert not process_gone(sleeper, timeout=0.5), "the leftover must outlive its host"
+    # The components the host started die with it (parent-death signal)...
+    assert process_gone(shell)
+    assert process_gone(echo)
+    # ... what they started in turn outlives it, until a new session sweeps the run.
+    assert not process_gone(grandchild, timeout=0.5), "the grandchild must outlive its host"
     assert len(list(isolated_runs.iterdir())) == 1
 
     # A session sweeps once it runs a test of ours (one that uses a multicosim fixture).
     pytester.makepyfile(test_after="def test_after(mcs_seed): pass")
     pytester.runpytest_subprocess(timeout=60).assert_outcomes(passed=1)
-    assert process_gone(sleeper)
-    # A firmware also exits by itself once its host is gone.
-    assert process_gone(echo)
+    assert process_gone(grandchild)
     assert list(isolated_runs.iterdir()) == []
