@@ -4,6 +4,9 @@
     python -m bench --quick          # a shorter run (about 1 minute)
     python -m bench --only rover,trace   # some benchmarks: table only
 
+The falsification benchmark takes longer and keeps its own README table:
+``python bench/bench_search.py --readme``.
+
 Each benchmark runs as its own process (``bench/bench_NAME.py``, which writes
 ``bench/results/NAME.json``), one after the other, so that none inherits another's heap,
 sockets or children. The summary rows are built from those files; the README's Performance
@@ -39,7 +42,6 @@ BENCHMARKS = (
     "docker",
     "throughput",
     "scaling",
-    "falsify",
     "campaign",
 )
 
@@ -291,7 +293,7 @@ def trace_rows(data: dict[str, Any]) -> list[Row]:
     ]
 
 
-def throughput_rows(data: dict[str, Any], falsify: dict[str, Any] | None) -> list[Row]:
+def throughput_rows(data: dict[str, Any]) -> list[Row]:
     rows = []
     for level, r in data["levels"].items():
         note = r.get("fallback_reason") or ""
@@ -316,18 +318,6 @@ def throughput_rows(data: dict[str, Any], falsify: dict[str, Any] | None) -> lis
             "so two workers share two cores with four busy processes",
         )
     )
-    if falsify is not None:
-        for mode, s in falsify["summary"].items():
-            rows.append(
-                row(
-                    "falsification throughput",
-                    f"cart, low, {mode} search ({s['searches']} seeds)",
-                    f"{60e3 / s['ms_per_simulation']:.0f} examples/min, found "
-                    f"{s['found']}/{s['searches']}, median {s['median_found']} examples",
-                    ratio=60e3 / s["ms_per_simulation"],
-                    unit="/min",
-                )
-            )
     return rows
 
 
@@ -399,7 +389,7 @@ BUILDERS: dict[str, Callable[[dict[str, dict[str, Any]]], list[Row]]] = {
     "transport": lambda r: transport_rows(r["transport"]),
     "docker": lambda r: docker_rows(r["docker"]),
     "trace": lambda r: trace_rows(r["trace"]),
-    "throughput": lambda r: throughput_rows(r["throughput"], r.get("falsify")),
+    "throughput": lambda r: throughput_rows(r["throughput"]),
     "scaling": lambda r: scaling_rows(r["scaling"]),
     "campaign": lambda r: campaign_rows(r["campaign"]),
 }

@@ -17,7 +17,7 @@ campaign seed and the sample's index (:func:`sample_seed`), never from the order
 samples finish, so a campaign gives the same results on any executor. A worker returns the
 requirement's robustness, a summary of the trajectory and, for a sample that violates the
 requirement, fails or times out, its MCAP trace. Results stream back as they finish
-(``on_result``, a progress line on stderr) and are written as ``results.csv`` (and
+(``on_result``, a progress bar on a terminal) and are written as ``results.csv`` (and
 ``results.parquet`` where pyarrow is installed) with the traces under ``output``.
 
 Executors: ``"process"`` (default; a ``concurrent.futures`` pool of forkserver processes) and
@@ -36,13 +36,13 @@ import contextlib
 import csv
 import dataclasses
 import functools
+import inspect
 import logging
 import math
 import multiprocessing
 import os
 import signal
 import socket
-import sys
 import tempfile
 import threading
 import time
@@ -57,6 +57,7 @@ import numpy as np
 
 from ._deps import require
 from ._errors import ConfigurationError
+from ._progress import ProgressBar, wanted
 from .requirements import Evaluation, Requirement
 
 __all__ = [
@@ -70,6 +71,7 @@ __all__ = [
     "RetryEvent",
     "SampleResult",
     "Simulate",
+    "check_simulate",
     "from_strategy",
     "latin_hypercube",
     "random_design",
@@ -80,6 +82,7 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
+# The one callback shape of campaigns, falsify and taliro:
 # simulate(sample, fidelity, seed) -> a trajectory Requirement.evaluate accepts
 Simulate = Callable[[Any, str, int], object]
 
@@ -91,6 +94,22 @@ FIDELITY_LEVELS = ("low", "medium", "high")
 # to the interpreter (a C call that blocks).
 _GRACE = 5.0
 _POLL = 0.2
+
+
+def check_simulate(simulate: object, field: str = "simulate") -> Simulate:
+    """Return ``simulate`` if it can be called as ``simulate(sample, fidelity, seed)``."""
+    allowed = "a function simulate(sample, fidelity, seed) returning a trajectory"
+    if not callable(simulate):
+        raise ConfigurationError(field, simulate, allowed)
+    try:
+        signature = inspect.signature(simulate)
+    except (TypeError, ValueError):
+        return simulate  # a builtin or extension callable: nothing to check
+    try:
+        signature.bind(None, "low", 0)
+    except TypeError:
+        raise ConfigurationError(field, simulate, f"{allowed} (it takes {signature})") from None
+    return simulate
 
 
 def sample_seed(campaign_seed: int, index: int) -> int:
@@ -710,32 +729,12 @@ class CampaignInterrupted(KeyboardInterrupt):
         super().__init__(f"campaign interrupted after {len(result.results)} samples")
 
 
-class _Progress:
-    """A progress line on stderr, rewritten in place on a terminal, throttled elsewhere."""
-
-    def __init__(self, enabled: bool, label: str) -> None:
-        self.enabled = enabled
-        self.label = label
-        self.total = 0
-        self._last = 0.0
-        self._tty = enabled and sys.stderr.isatty()
-
-    def update(self, results: Sequence[SampleResult], retries: int, final: bool = False) -> None:
-        if not self.enabled:
-            return
-        now = time.monotonic()
-        if not final and now - self._last < (0.2 if self._tty else 2.0):
-            return
-        self._last = now
-        counts = collections.Counter(r.status for r in results)
-        bad = counts["error"] + counts["timeout"] + counts["lost"]
-        line = (
-            f"campaign [{self.label}] {len(results)}/{self.total} done: "
-            f"{counts['violated']} violated, {bad} failed, {retries} retried"
-        )
-        end = "\n" if final or not self._tty else ""
-        sys.stderr.write(("\r" if self._tty else "") + line + end)
-        sys.stderr.flush()
+def _status(results: Sequence[SampleResult], retries: int) -> str:
+    counts = collections.Counter(r.status for r in results)
+    bad = counts["error"] + counts["timeout"] + counts["lost"]
+    scored = [r.robustness for r in results if not math.isnan(r.robustness)]
+    best = f"best robustness {min(scored):.4g}, " if scored else ""
+    return f"{best}{counts['violated']} violated, {bad} failed, {retries} retried"
 
 
 @dataclasses.dataclass
@@ -770,11 +769,10 @@ class Campaign:
         timeout: float = 300.0,
         max_retries: int = 2,
         output: str | Path | None = None,
-        progress: bool = True,
+        progress: bool | None = None,
         on_result: Callable[[SampleResult], None] | None = None,
     ) -> None:
-        if not callable(simulate):
-            raise ConfigurationError("simulate", simulate, "a function (sample, fidelity, seed)")
+        check_simulate(simulate)
         if fidelity not in FIDELITY_LEVELS:
             raise ConfigurationError("fidelity", fidelity, f"one of {FIDELITY_LEVELS}")
         self.seed = _check_seed(seed)
@@ -799,7 +797,7 @@ class Campaign:
         self.max_retries = max_retries
         self.output = Path(output) if output is not None else None
         self.on_result = on_result
-        self._progress = _Progress(progress, self._executor.name)
+        self._progress = ProgressBar(wanted(progress), 0, f"campaign [{self._executor.name}]")
         self._backend: _Backend | None = None
         self._results: dict[int, SampleResult] = {}
         self._retries: list[RetryEvent] = []
@@ -821,6 +819,7 @@ class Campaign:
     def close(self) -> None:
         """Stop the workers (and a Ray connection this campaign made)."""
         backend, self._backend = self._backend, None
+        self._progress.close()
         try:
             if backend is not None:
                 backend.close()
@@ -835,7 +834,7 @@ class Campaign:
             raise ConfigurationError("samples", batch, "at least one sample")
         first = self._next
         self._next += len(batch)
-        self._progress.total += len(batch)
+        self._progress.grow(len(batch))
         queue = collections.deque(
             _Flight(first + i, sample, 1, 0.0) for i, sample in enumerate(batch)
         )
@@ -856,7 +855,6 @@ class Campaign:
             backend.kill(list(flying))
             self.close()
             raise CampaignInterrupted(self.result()) from None
-        self._progress.update(list(self._results.values()), len(self._retries), final=True)
         self._write()
         return [self._results[first + i] for i in range(len(batch))]
 
@@ -935,7 +933,7 @@ class Campaign:
         self._results[result.index] = result
         if self.on_result is not None:
             self.on_result(result)
-        self._progress.update(list(self._results.values()), len(self._retries))
+        self._progress.advance(_status(list(self._results.values()), len(self._retries)))
 
     def _save_traces(self, outcome: _Outcome) -> tuple[Path, ...]:
         if self.output is None or not outcome.traces:
@@ -1029,7 +1027,7 @@ def run_campaign(
     timeout: float = 300.0,
     max_retries: int = 2,
     output: str | Path | None = None,
-    progress: bool = True,
+    progress: bool | None = None,
     on_result: Callable[[SampleResult], None] | None = None,
 ) -> CampaignResult:
     """Evaluate every sample as one simulation; return the results in sample order.
@@ -1040,7 +1038,8 @@ def run_campaign(
     ``timeout`` (s) cancels a sample that runs longer; a sample whose worker dies is re-run
     up to ``max_retries`` times. With ``output``, results go to ``output/results.csv`` and
     the traces of samples that did not pass to ``output/traces/``. ``on_result`` is called
-    with each result as it finishes; ``progress`` writes a progress line on stderr.
+    with each result as it finishes; ``progress`` shows a progress bar on stderr (samples done,
+    best robustness, ETA; None: only when stderr is a terminal).
     """
     batch = list(samples)
     if not batch:

@@ -6,9 +6,9 @@ place of ``Gazebo(backend=ODE(iterations=...), step_size=...)``)::
 
     import multicosim.taliro as mtaliro
 
-    def simulate(static, fidelity):          # static inputs -> trajectory
+    def simulate(static, fidelity, seed):    # static inputs -> trajectory
         world = WorldConfig(iterations=round(static["iters"]), timestep=static["step_size"])
-        with FreshSimulations(fidelity=fidelity)(rover.Rover, world=world) as sim:
+        with rover.Rover(fidelity=fidelity, seed=seed, world=world).start() as sim:
             return sim.controller.send(rover.Mission(speed=static["speed"]))
 
     result = mtaliro.falsify(
@@ -22,21 +22,24 @@ place of ``Gazebo(backend=ODE(iterations=...), step_size=...)``)::
     result.falsified, result.sample, result.robustness, result.traces
 
 :func:`model` and :func:`specification` give the psy-taliro objects themselves, for use with
-``staliro.test`` and any psy-taliro optimizer.
+``staliro.test`` and any psy-taliro optimizer. The simulate function has multicosim's one
+callback shape, ``simulate(sample, fidelity, seed)`` (as for campaigns and
+:func:`multicosim.falsify.falsify`, which also drives psy-taliro's optimizers over spaces
+with integer and choice dimensions and across fidelity levels).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import warnings
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 from ._deps import require
 from ._errors import ConfigurationError
+from .campaign import FIDELITY_LEVELS, Simulate, check_simulate
 from .requirements import Evaluation, Requirement, Signals, load_rtamt
-from .strategies import FIDELITY_LEVELS
 
 load_rtamt()  # psy-taliro imports rtamt; this keeps its import warnings quiet
 with warnings.catch_warnings():
@@ -52,9 +55,6 @@ __all__ = [
     "specification",
 ]
 
-# simulate(static inputs, fidelity) -> a trajectory Requirement.evaluate accepts
-Simulate = Callable[[Mapping[str, float], str], object]
-
 
 @dataclasses.dataclass(frozen=True)
 class _Annotation:
@@ -65,13 +65,18 @@ class _Annotation:
 
 
 def model(
-    simulate: Simulate, *, fidelity: str = "low", signals: tuple[str, ...] | None = None
+    simulate: Simulate,
+    *,
+    fidelity: str = "low",
+    seed: int = 0,
+    signals: tuple[str, ...] | None = None,
 ) -> Any:
-    """A psy-taliro model: each sample runs ``simulate(sample.static, fidelity)``.
+    """A psy-taliro model: each sample runs ``simulate(sample.static, fidelity, seed)``.
 
     The returned trajectory becomes a ``staliro.Trace`` of ``{signal: value}`` states (all
     numeric signals, or only ``signals``), usable with ``staliro.specifications.rtamt``.
     """
+    check_simulate(simulate)
     if fidelity not in FIDELITY_LEVELS:
         raise ConfigurationError("fidelity", fidelity, f"one of {FIDELITY_LEVELS}")
     from .requirements import signals_of
@@ -79,7 +84,7 @@ def model(
     def run(inputs: Any) -> Any:
         # psy-taliro hands NumPy scalars; messages want plain floats.
         static = {str(k): float(v) for k, v in inputs.static.items()}
-        columns = signals_of(simulate(static, fidelity))
+        columns = signals_of(simulate(static, fidelity, seed))
         names = list(signals) if signals is not None else list(columns.columns)
         missing = [n for n in names if n not in columns.columns]
         if missing:
@@ -143,8 +148,9 @@ def falsify(
 ) -> TaliroResult:
     """Search ``static_inputs`` with psy-taliro (default: UniformRandom) at ``fidelity``.
 
-    Stops at the first falsifying sample (robustness < 0). ``seed`` (>= 0) is passed to
-    psy-taliro as ``seed + 1`` (it needs seeds > 0). With ``trace_dir``, the lowest
+    Stops at the first falsifying sample (robustness < 0). Every sample runs
+    ``simulate(sample, fidelity, seed)``; ``seed`` (>= 0) is passed to psy-taliro as
+    ``seed + 1`` (it needs seeds > 0). With ``trace_dir``, the lowest
     robustness sample is simulated once more while recording, and its trace and plot are
     saved there.
 
@@ -153,6 +159,7 @@ def falsify(
     the seed of its index (:func:`multicosim.campaign.sample_seed`); the default optimizer
     then draws the whole budget as one batch (no early stop). ``simulate`` must be picklable.
     """
+    check_simulate(simulate)
     if not static_inputs:
         raise ConfigurationError("static_inputs", static_inputs, "at least one input range")
     for name, bounds in static_inputs.items():
@@ -174,7 +181,9 @@ def falsify(
     )
     if executor is None and ray_address is None:
         opt = optimizer if optimizer is not None else staliro_optimizers.UniformRandom(min_cost=0.0)
-        runs = staliro.test(model(simulate, fidelity=fidelity), specification(req), opt, options)
+        runs = staliro.test(
+            model(simulate, fidelity=fidelity, seed=seed), specification(req), opt, options
+        )
     else:
         opt = optimizer if optimizer is not None else staliro_optimizers.UniformRandom()
         runs = _run_on(executor, ray_address, simulate, req, opt, options, fidelity, seed)
@@ -204,17 +213,6 @@ class _Extra:
 
     model: Any
     spec: Evaluation
-
-
-@dataclasses.dataclass(frozen=True)
-class _CampaignSimulate:
-    """``simulate(static, fidelity)`` as a campaign's ``(sample, fidelity, seed)``; the seed
-    reaches FreshSimulations through the worker's trace metadata."""
-
-    simulate: Simulate
-
-    def __call__(self, sample: Mapping[str, float], fidelity: str, seed: int) -> object:
-        return self.simulate(sample, fidelity)
 
 
 class _CampaignObjective:
@@ -258,7 +256,7 @@ def _run_on(
     from .campaign import Campaign
 
     with Campaign(
-        _CampaignSimulate(simulate),
+        simulate,
         requirement,
         fidelity=fidelity,
         seed=seed,
@@ -296,5 +294,5 @@ def _record(
         }
     )
     with trace.activate(session):
-        requirement.evaluate(simulate(sample, fidelity))
+        requirement.evaluate(simulate(sample, fidelity, seed))
     return tuple(session.save(directory))

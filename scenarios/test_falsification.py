@@ -23,7 +23,7 @@ import multicosim.attacks as attacks
 import multicosim.px4 as px4
 import multicosim.strategies as mst
 from multicosim.attacks import strategies as ast
-from multicosim.falsify import falsify
+from multicosim.falsify import HypothesisSearch, falsify
 from multicosim.geo import EARTH_RADIUS, LocalProjection
 from multicosim.requirements import Requirement
 
@@ -96,12 +96,18 @@ def test_small_gps_noise_never_breaks_tracking(
 
 @pytest.mark.fidelity("low")
 def test_gps_spoof_breaks_tracking_and_shrinks_to_the_limit(mcs_seed: int) -> None:
-    def run(spoof: attacks.Jump, fidelity: str) -> Any:
-        with attacked_px4(fidelity, mcs_seed, (spoof,)).start() as simulation:
+    def run(spoof: attacks.Jump, fidelity: str, seed: int) -> Any:
+        with attacked_px4(fidelity, seed, (spoof,)).start() as simulation:
             return simulation.firmware.send(MISSION).trajectory
 
     result = falsify(
-        run, TRACKING, horizontal_spoofs(), levels=("low",), budget=SEARCH_BUDGET, seed=mcs_seed
+        run,
+        TRACKING,
+        horizontal_spoofs(),
+        optimizer=HypothesisSearch(shrink=True),
+        levels=("low",),
+        budget=SEARCH_BUDGET,
+        seed=mcs_seed,
     )
     assert result.falsified, result.summary()
     spoof = result.counterexample.example  # type: ignore[union-attr]

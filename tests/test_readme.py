@@ -89,6 +89,16 @@ def test_psy_taliro_listing_runs() -> None:
     assert set(result.sample) == {"iters", "step_size", "lat", "lon", "alt"}
 
 
+def test_search_listing_runs() -> None:
+    result = _run("from multicosim.falsify import")["result"]
+    assert result.falsified, result.summary()
+    cx = result.counterexample
+    assert cx.failing_levels == ("low", "medium")  # found cheaply, confirmed by physics
+    assert set(cx.example) == {"speed", "rate", "iterations"}
+    assert isinstance(cx.example["iterations"], int)
+    assert result.transfer_rates["medium"] == 1.0
+
+
 def test_docker_listing_runs() -> None:
     from multicosim.docker import RUNTIME_IMAGE, engine_available
 

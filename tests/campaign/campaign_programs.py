@@ -45,11 +45,6 @@ def worker_pid() -> int:
     return os.getpid()
 
 
-def rover_static(static: Any, fidelity: str) -> Any:
-    """The psy-taliro shape: static inputs and fidelity (the seed comes from the campaign)."""
-    return simulate_rover(static, fidelity, 0)
-
-
 def simulate_slowly(sample: dict[str, Any], fidelity: str, seed: int) -> Any:
     """As simulate_rover, recording the worker's pid; samples flagged ``slow`` take a minute."""
     Path(sample["pids"], str(os.getpid())).touch()

@@ -162,3 +162,29 @@ def test_pool_cancels_a_hanging_simulation() -> None:
     assert [r.status for i, r in enumerate(result.results) if i != 2] == [
         "ok" if r.robustness >= 0 else "violated" for i, r in enumerate(result.results) if i != 2
     ]
+
+
+def test_a_progress_bar_on_request_and_quiet_otherwise(capfd: pytest.CaptureFixture[str]) -> None:
+    design = latin_hypercube(cp.RANGES, 4, seed=1)
+    run_campaign(
+        cp.simulate_rover,
+        cp.REQUIREMENT,
+        design,
+        executor=ProcessExecutor(workers=1),
+        progress=True,
+    )
+    err = capfd.readouterr().err
+    assert "campaign [process]" in err
+    assert "4/4" in err
+    assert "best robustness" in err
+    # stderr is no terminal here: by default, nothing.
+    run_campaign(cp.simulate_rover, cp.REQUIREMENT, design, executor=ProcessExecutor(workers=1))
+    assert capfd.readouterr().err == ""
+
+
+def test_a_simulate_function_of_another_shape_is_refused() -> None:
+    def two_arguments(sample: Any, fidelity: str) -> object:
+        raise AssertionError("must not run")
+
+    with pytest.raises(mcs.ConfigurationError, match=r"simulate\(sample, fidelity, seed\)"):
+        run_campaign(two_arguments, cp.REQUIREMENT, [{"speed": 1.0}])  # type: ignore[arg-type]

@@ -91,8 +91,9 @@ class CartScenario:
         return CartRun(self.simulator.start(), self.driver, self.fidelity)
 
 
-def run(example: tuple[float, int], fidelity: str, *, seed: int = 0) -> dict[str, list[float]]:
-    """One simulation of ``(speed, steps)`` at ``fidelity``: the trajectory columns."""
-    speed, steps = example
+def run(example: Any, fidelity: str, seed: int = 0) -> dict[str, list[float]]:
+    """One simulation of ``(speed, steps)`` (or ``{"speed": .., "steps": ..}``) at ``fidelity``:
+    the trajectory columns."""
+    speed, steps = (example["speed"], example["steps"]) if isinstance(example, dict) else example
     with FreshSimulations(fidelity=fidelity, seed=seed)(CartScenario) as cart:
         return cart.drive(speed, steps)  # type: ignore[no-any-return]

@@ -19,8 +19,8 @@ import staliro.optimizers  # noqa: E402
 import staliro.specifications.rtamt  # noqa: E402
 
 
-def cart(static: Mapping[str, float], fidelity: str) -> dict[str, list[float]]:
-    return run((static["speed"], round(static["steps"])), fidelity)
+def cart(static: Mapping[str, float], fidelity: str, seed: int) -> dict[str, list[float]]:
+    return run((static["speed"], round(static["steps"])), fidelity, seed)
 
 
 def test_uniform_random_finds_the_pit_and_saves_the_trace(tmp_path: Path) -> None:
@@ -55,9 +55,9 @@ def test_the_papers_appendix_with_staliro_objects() -> None:
     from multicosim.mujoco import WorldConfig
     from multicosim.rover import Mission, Rover
 
-    def simulate(static: Mapping[str, float], fidelity: str) -> object:
+    def simulate(static: Mapping[str, float], fidelity: str, seed: int) -> object:
         world = WorldConfig(iterations=round(static["iters"]), timestep=static["step_size"])
-        simulation = Rover(fidelity=fidelity, world=world).start()  # type: ignore[arg-type]
+        simulation = Rover(fidelity=fidelity, seed=seed, world=world).start()  # type: ignore[arg-type]
         try:
             trajectory = simulation.controller.send(
                 Mission(speed=static["speed"], distance=static["distance"])
@@ -93,3 +93,11 @@ def test_bad_static_inputs() -> None:
         mtaliro.falsify(cart, PIT, static_inputs={"speed": (5.0, 1.0)})
     with pytest.raises(mcs.ConfigurationError, match="fidelity"):
         mtaliro.model(cart, fidelity="ultra")
+
+
+def test_a_simulate_function_of_another_shape_is_refused_before_anything_runs() -> None:
+    def two_arguments(static: Mapping[str, float], fidelity: str) -> object:
+        raise AssertionError("must not run")
+
+    with pytest.raises(mcs.ConfigurationError, match=r"simulate\(sample, fidelity, seed\)"):
+        mtaliro.falsify(two_arguments, PIT, static_inputs={"speed": (0.0, 5.0)})  # type: ignore[arg-type]
