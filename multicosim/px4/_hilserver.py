@@ -210,11 +210,17 @@ class HilTcpBridge:
         self.steps += 1
         conn = self._conn
         assert conn is not None
+        data = b"".join(frames)
+        start = time.monotonic()
         try:
-            conn.sendall(b"".join(frames))
+            # Sending wakes PX4's threads (real-time priority where it may), which can run
+            # before this call returns: what the step waits for PX4 starts here.
+            conn.sendall(data)
+            controls = self._receive_controls(conn, start)
         except OSError as exc:
             raise self._lost(f"closed the simulator connection ({exc})") from exc
-        controls = self._await_controls(conn)
+        finally:
+            self.wait_s += time.monotonic() - start
         if controls is None:
             return
         self.replies += 1
@@ -249,13 +255,6 @@ class HilTcpBridge:
         data = bytes(msg.pack(self._link))
         self._link.seq = (self._link.seq + 1) & 0xFF
         return data
-
-    def _await_controls(self, conn: socket.socket) -> HilActuatorControls | None:
-        start = time.monotonic()
-        try:
-            return self._receive_controls(conn, start)
-        finally:
-            self.wait_s += time.monotonic() - start
 
     def _receive_controls(self, conn: socket.socket, start: float) -> HilActuatorControls | None:
         wait = self.lockstep_timeout if self.answering else BOOT_WAIT
