@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from pymavlink import mavutil
 
 import multicosim as mcs
 import multicosim.px4 as px4
@@ -32,8 +33,6 @@ from multicosim.px4._hilserver import HilTcpBridge
 from multicosim.px4._real import API_LOCAL_PORT, API_PORT, claim_instance
 from multicosim.px4._simulator import WorldComponent
 from pytest_multicosim.px4 import RealPX4
-
-mavutil = pytest.importorskip("pymavlink.mavutil")
 
 HOME = px4.Home()
 PROJ = LocalProjection(HOME.lat, HOME.lon)
@@ -288,7 +287,6 @@ def test_px4_that_never_connects_fails_after_its_start_timeout(tmp_path: Path) -
 def test_real_px4_flies_a_mission_and_leaves_its_flight_log(
     px4_sitl: RealPX4, tmp_path: Path
 ) -> None:
-    pytest.importorskip("pyulog")
     from pyulog import ULog
 
     simulator = px4.PX4(fidelity="medium", firmware=px4_sitl.sitl())
