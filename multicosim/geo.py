@@ -1,9 +1,14 @@
-"""Geographic coordinates around a home position: one projection for every vehicle.
+"""Geographic coordinates around a home position, and attitudes: one place for every vehicle.
 
 The local frame is PX4's (``map_projection``): the azimuthal equidistant projection on a
 spherical Earth, so a GPS fix built by a world agrees with what PX4 (and our autopilot)
 compute from it. Worlds, autopilots, attack models and tests all project with
 :class:`LocalProjection`; the ENU helpers are the same projection with axes swapped.
+
+Attitudes are unit quaternions ``(w, x, y, z)`` rotating body axes into the local frame.
+Two conventions meet here: robotics' (MuJoCo, Foxglove, the rover: body forward-left-up in
+east-north-up) and aerospace's (PX4, ArduPilot: forward-right-down in north-east-down);
+:func:`swap_attitude_frames` converts between them.
 
 Scalar math only: this runs in the worlds' and the estimator's hot loops.
 """
@@ -17,11 +22,19 @@ __all__ = [
     "EARTH_RADIUS",
     "Home",
     "LocalProjection",
+    "Quaternion",
     "geodetic_to_local",
     "local_to_geodetic",
     "pressure_altitude",
     "pressure_hpa",
+    "quaternion_from_euler",
+    "quaternion_multiply",
+    "rotate_to_body",
+    "swap_attitude_frames",
 ]
+
+Quaternion = tuple[float, float, float, float]
+"""A unit quaternion ``(w, x, y, z)``."""
 
 EARTH_RADIUS = 6_371_000.0
 """Metres: the sphere of PX4's map projection (``CONSTANTS_RADIUS_OF_EARTH``)."""
@@ -105,3 +118,59 @@ def pressure_hpa(altitude_amsl: float) -> float:
 def pressure_altitude(hpa: float) -> float:
     """ISA altitude (m) at which the static pressure is ``hpa``."""
     return float((1.0 - (hpa / 1013.25) ** (1.0 / 5.25588)) / 2.25577e-5)
+
+
+# -- attitudes --------------------------------------------------------------------------------
+
+
+def quaternion_multiply(a: tuple[float, ...], b: tuple[float, ...]) -> Quaternion:
+    """The Hamilton product ``a * b`` (rotate by ``b``, then by ``a``)."""
+    aw, ax, ay, az = a
+    bw, bx, by, bz = b
+    return (
+        aw * bw - ax * bx - ay * by - az * bz,
+        aw * bx + ax * bw + ay * bz - az * by,
+        aw * by - ax * bz + ay * bw + az * bx,
+        aw * bz + ax * by - ay * bx + az * bw,
+    )
+
+
+def quaternion_from_euler(roll: float, pitch: float, yaw: float) -> Quaternion:
+    """The unit quaternion of ZYX Euler angles (yaw, then pitch, then roll; radians)."""
+    cr, sr = math.cos(roll / 2), math.sin(roll / 2)
+    cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
+    cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
+    return (
+        cr * cp * cy + sr * sp * sy,
+        sr * cp * cy - cr * sp * sy,
+        cr * sp * cy + sr * cp * sy,
+        cr * cp * sy - sr * sp * cy,
+    )
+
+
+def rotate_to_body(
+    q: tuple[float, ...], v: tuple[float, float, float]
+) -> tuple[float, float, float]:
+    """``v`` (in the local frame) expressed in the body frame of attitude ``q``."""
+    w, x, y, z = q
+    vx, vy, vz = v
+    # R^T v for the rotation matrix R of q (body to local).
+    return (
+        (1 - 2 * (y * y + z * z)) * vx + 2 * (x * y + w * z) * vy + 2 * (x * z - w * y) * vz,
+        2 * (x * y - w * z) * vx + (1 - 2 * (x * x + z * z)) * vy + 2 * (y * z + w * x) * vz,
+        2 * (x * z + w * y) * vx + 2 * (y * z - w * x) * vy + (1 - 2 * (x * x + y * y)) * vz,
+    )
+
+
+_H = math.sqrt(0.5)
+_NED_ENU = (0.0, _H, _H, 0.0)  # a half turn about (1, 1, 0)/sqrt(2): swaps NED and ENU
+_FLU_FRD = (0.0, 1.0, 0.0, 0.0)  # a half turn about x: swaps FLU and FRD
+
+
+def swap_attitude_frames(q: tuple[float, ...]) -> Quaternion:
+    """An attitude of a FLU body in ENU as a FRD body in NED, or the other way round.
+
+    Both frame changes are half turns, each its own inverse, so one function serves both
+    directions (MuJoCo to PX4, PX4 to Foxglove).
+    """
+    return quaternion_multiply(quaternion_multiply(_NED_ENU, q), _FLU_FRD)

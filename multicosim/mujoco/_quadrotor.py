@@ -10,12 +10,12 @@ north-east-down and forward-right-down. The conversion happens here, once per pe
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 import mujoco
 
+from ..geo import swap_attitude_frames
 from ..px4._airframe import NONE_IRIS, Airframe
 from ..px4._config import SENSORS, Topics
 from ..px4._hil import (
@@ -32,30 +32,7 @@ from ._world import Physics
 if TYPE_CHECKING:
     from .._runtime import StepContext, Subscription
 
-__all__ = ["QuadrotorVehicle", "ned_attitude"]
-
-_H = math.sqrt(0.5)
-
-
-def _mul(a: tuple[float, ...], b: tuple[float, ...]) -> tuple[float, float, float, float]:
-    aw, ax, ay, az = a
-    bw, bx, by, bz = b
-    return (
-        aw * bw - ax * bx - ay * by - az * bz,
-        aw * bx + ax * bw + ay * bz - az * by,
-        aw * by - ax * bz + ay * bw + az * bx,
-        aw * bz + ax * by - ay * bx + az * bw,
-    )
-
-
-# NED from ENU: a half turn about (1, 1, 0)/sqrt(2); FLU from FRD: a half turn about x.
-_NED_FROM_ENU = (0.0, _H, _H, 0.0)
-_FLU_FROM_FRD = (0.0, 1.0, 0.0, 0.0)
-
-
-def ned_attitude(q_enu_flu: tuple[float, ...]) -> tuple[float, float, float, float]:
-    """PX4's attitude (FRD body to NED) from MuJoCo's (FLU body to ENU), both w, x, y, z."""
-    return _mul(_mul(_NED_FROM_ENU, q_enu_flu), _FLU_FROM_FRD)
+__all__ = ["QuadrotorVehicle"]
 
 
 class QuadrotorVehicle:
@@ -115,7 +92,7 @@ class QuadrotorVehicle:
             ctx,
             (y, x, self.airframe.ground_offset - z),
             (vy, vx, -vz),
-            ned_attitude((qw, qx, qy, qz)),
+            swap_attitude_frames((qw, qx, qy, qz)),
             (a[0], -a[1], -a[2]),
             (gyro[0], -gyro[1], -gyro[2]),
         )

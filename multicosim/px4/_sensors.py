@@ -23,7 +23,7 @@ import math
 from typing import Any
 
 from .._runtime import StepContext
-from ..geo import LocalProjection, pressure_hpa
+from ..geo import LocalProjection, pressure_hpa, rotate_to_body
 from ..mujoco._config import WorldConfig
 from ._config import Topics, world_topics
 from ._hil import (
@@ -37,7 +37,7 @@ from ._hil import (
     pack,
 )
 
-__all__ = ["GPS_PERIOD", "HilSensors", "Vec3", "rotate_to_body"]
+__all__ = ["GPS_PERIOD", "HilSensors", "Vec3"]
 
 GPS_PERIOD = 0.1
 MAG_BARO_PERIOD = 0.02
@@ -54,18 +54,6 @@ MAG_SIGMA, BARO_SIGMA = 0.003, 0.1  # gauss, m
 Vec3 = tuple[float, float, float]
 _ZERO3: Vec3 = (0.0, 0.0, 0.0)
 _NO_BARO = (0.0, 0.0, 0.0, 0.0)
-
-
-def rotate_to_body(q: tuple[float, float, float, float], v: Vec3) -> Vec3:
-    """``v`` (in the earth frame) expressed in the body frame of attitude ``q`` (w, x, y, z)."""
-    w, x, y, z = q
-    vx, vy, vz = v
-    # R^T v for the rotation matrix R of q (body to earth).
-    return (
-        (1 - 2 * (y * y + z * z)) * vx + 2 * (x * y + w * z) * vy + 2 * (x * z - w * y) * vz,
-        2 * (x * y - w * z) * vx + (1 - 2 * (x * x + z * z)) * vy + 2 * (y * z + w * x) * vz,
-        2 * (x * z + w * y) * vx + 2 * (y * z - w * x) * vy + (1 - 2 * (x * x + y * y)) * vz,
-    )
 
 
 def _hil_sensor(

@@ -24,8 +24,7 @@ import math
 from collections.abc import Iterable, Iterator
 from typing import TYPE_CHECKING, Any
 
-from ..geo import LocalProjection
-from ..rover._vehicle import quaternion_from_euler
+from ..geo import LocalProjection, quaternion_from_euler, swap_attitude_frames
 from ..trace import (
     DIALECT,
     GEOJSON,
@@ -73,7 +72,6 @@ _INT_RANGE = {
     "int64_t": (-(2**63), 2**63 - 1),
     "uint64_t": (0, 2**64 - 1),
 }
-_SQRT_HALF = math.sqrt(0.5)
 
 
 # -- MAVLink messages as typed JSON ---------------------------------------------------------
@@ -138,24 +136,6 @@ def mavlink_message(m: Any) -> dict[str, Any]:
 
 
 # -- attitude -------------------------------------------------------------------------------
-
-
-def _multiply(a: tuple[float, ...], b: tuple[float, ...]) -> tuple[float, float, float, float]:
-    aw, ax, ay, az = a
-    bw, bx, by, bz = b
-    return (
-        aw * bw - ax * bx - ay * by - az * bz,
-        aw * bx + ax * bw + ay * bz - az * by,
-        aw * by - ax * bz + ay * bw + az * bx,
-        aw * bz + ax * by - ay * bx + az * bw,
-    )
-
-
-def enu_flu(q_ned_frd: tuple[float, ...]) -> tuple[float, float, float, float]:
-    """A body FRD attitude in NED as body FLU in ENU (how Foxglove's 3D panel draws z up)."""
-    ned_to_enu = (0.0, _SQRT_HALF, _SQRT_HALF, 0.0)
-    flu_to_frd = (0.0, 1.0, 0.0, 0.0)
-    return _multiply(_multiply(ned_to_enu, q_ned_frd), flu_to_frd)
 
 
 # -- the converters -------------------------------------------------------------------------
@@ -233,7 +213,9 @@ class _Links:
             return
         position = (local.y, local.x, -local.z)  # NED -> ENU
         yield Converted(
-            POSE_CHANNEL, POSE_IN_FRAME, pose_message(time_ns, position, enu_flu(q_ned_frd))
+            POSE_CHANNEL,
+            POSE_IN_FRAME,
+            pose_message(time_ns, position, swap_attitude_frames(q_ned_frd)),
         )
 
     def _uplink_message(self, kind: str, m: Any, time_ns: int) -> Iterator[Converted]:

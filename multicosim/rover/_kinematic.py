@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
-from ..geo import local_to_geodetic
+from ..geo import local_to_geodetic, quaternion_from_euler
 from ._messages import (
     COMMAND_TOPIC,
     MAX_STEERING,
@@ -30,7 +30,6 @@ from ._vehicle import (
     WHEELBASE,
     RoverWorldConfig,
     field_in_body,
-    quaternion_from_euler,
 )
 
 if TYPE_CHECKING:

@@ -24,7 +24,6 @@ __all__ = [
     "ackermann",
     "field_in_body",
     "heading_from_field",
-    "quaternion_from_euler",
     "roll_from_quaternion",
     "yaw_from_quaternion",
 ]
@@ -52,21 +51,6 @@ def ackermann(speed: float, steering: float) -> tuple[float, float, float, float
     left = math.atan(WHEELBASE / (radius - half))
     right = math.atan(WHEELBASE / (radius + half))
     return left, right, rate * (radius - half) / radius, rate * (radius + half) / radius
-
-
-def quaternion_from_euler(
-    roll: float, pitch: float, yaw: float
-) -> tuple[float, float, float, float]:
-    """The unit quaternion (w, x, y, z) of ZYX Euler angles."""
-    cr, sr = math.cos(roll / 2), math.sin(roll / 2)
-    cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
-    cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
-    return (
-        cr * cp * cy + sr * sp * sy,
-        sr * cp * cy - cr * sp * sy,
-        cr * sp * cy + sr * cp * sy,
-        cr * cp * sy - sr * sp * cy,
-    )
 
 
 def yaw_from_quaternion(q: tuple[float, float, float, float]) -> float:

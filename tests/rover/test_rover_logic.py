@@ -9,6 +9,7 @@ import msgspec
 import pytest
 
 import multicosim as mcs
+from multicosim.geo import quaternion_from_euler
 from multicosim.rover import (
     COMMAND_TOPIC,
     MAX_STEERING,
@@ -31,12 +32,7 @@ from multicosim.rover import (
     heading_from_field,
     planned_endpoint,
 )
-from multicosim.rover._vehicle import (
-    field_in_body,
-    quaternion_from_euler,
-    roll_from_quaternion,
-    yaw_from_quaternion,
-)
+from multicosim.rover._vehicle import field_in_body, roll_from_quaternion, yaw_from_quaternion
 
 # -- messages -------------------------------------------------------------------------------
 

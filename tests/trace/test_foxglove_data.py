@@ -7,9 +7,9 @@ import math
 import jsonschema
 import pytest
 
+from multicosim.geo import quaternion_from_euler, swap_attitude_frames
 from multicosim.px4._mav import dialect, new_link
-from multicosim.px4._trace import enu_flu, mavlink_message, mavlink_schema
-from multicosim.rover._vehicle import quaternion_from_euler
+from multicosim.px4._trace import mavlink_message, mavlink_schema
 from multicosim.trace import DIALECT, foxglove_schema, message_path
 from multicosim.trace._tlog import split_frames
 
@@ -38,7 +38,7 @@ def rotate(q: tuple[float, ...], v: tuple[float, ...]) -> tuple[float, ...]:
 def test_the_attitude_is_drawn_in_east_north_up(
     roll: float, pitch: float, yaw: float, body: tuple[float, ...], world: tuple[float, ...]
 ) -> None:
-    q = enu_flu(quaternion_from_euler(roll, pitch, yaw))
+    q = swap_attitude_frames(quaternion_from_euler(roll, pitch, yaw))
     assert rotate(q, body) == pytest.approx(world, abs=1e-3)  # type: ignore[arg-type]
     assert math.fsum(c * c for c in q) == pytest.approx(1.0)
 
