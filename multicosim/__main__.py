@@ -87,7 +87,12 @@ def _sweep(args: argparse.Namespace) -> int:
 def _images_build(args: argparse.Namespace) -> int:
     from .docker import build_images
 
-    tags = build_images(force=args.force, progress=print if args.verbose else None)
+    tags = build_images(
+        base=args.base,
+        force=args.force,
+        progress=print if args.verbose else None,
+        px4_dir=args.px4_dir,
+    )
     for tag in tags:
         print(tag)
     return 0
@@ -142,6 +147,17 @@ def main(argv: list[str] | None = None) -> int:
     )
     p = images.add_parser("build", help="build multicosim's images locally (never pulls)")
     p.add_argument("--force", action="store_true", help="rebuild even if up to date")
+    p.add_argument(
+        "--base",
+        default=None,
+        help="base image (default: python:3.11-slim if present, else a Debian base made "
+        "with debootstrap)",
+    )
+    p.add_argument(
+        "--px4-dir",
+        default=None,
+        help="also build the real-PX4 image from this PX4 SITL directory (bin/px4 and etc/)",
+    )
     p.set_defaults(run=_images_build)
 
     args = parser.parse_args(argv)

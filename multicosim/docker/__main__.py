@@ -29,12 +29,8 @@ def main(argv: list[str] | None = None) -> int:
         from ._images import build
 
         progress = (lambda line: print(line, file=sys.stderr)) if args.verbose else None
-        for tag in build(base=args.base, force=args.force, progress=progress):
+        for tag in build(base=args.base, force=args.force, progress=progress, px4_dir=args.px4_dir):
             print(tag)
-        if args.px4_dir:
-            from ._images import build_px4
-
-            print(build_px4(args.px4_dir, force=args.force, progress=progress))
         return 0
     from ._sweep import sweep
 

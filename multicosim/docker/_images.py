@@ -55,6 +55,7 @@ UPSTREAM_BASE = "python:3.11-slim"
 RUNTIME_EXTRAS = ("mujoco", "mavlink")
 
 LABEL_INPUTS = "multicosim.inputs"
+_BUILD_LOCK = Path(tempfile.gettempdir()) / f"multicosim-{os.getuid()}-build.lock"
 _CA_BUNDLES = ("/etc/ssl/certs/ca-certificates.crt", "/etc/pki/tls/certs/ca-bundle.crt")
 _SOURCES = ("pyproject.toml", "README.md", "multicosim", "pytest_multicosim")
 
@@ -292,8 +293,7 @@ def build_px4(
             "(expected a px4_sitl_default build or bundle with bin/px4 and etc/)"
         )
     runtime = build(force=False, progress=progress)[0]
-    lock_path = Path(tempfile.gettempdir()) / f"multicosim-{os.getuid()}-build.lock"
-    with open(lock_path, "w") as lock, tempfile.TemporaryDirectory(prefix="mcs-px4-") as tmp:
+    with open(_BUILD_LOCK, "w") as lock, tempfile.TemporaryDirectory(prefix="mcs-px4-") as tmp:
         fcntl.flock(lock, fcntl.LOCK_EX)
         context = Path(tmp)
         shutil.copy(_repo_root() / "images" / "px4" / "Dockerfile", context / "Dockerfile")
@@ -310,18 +310,22 @@ def build(
     base: str | None = None,
     force: bool = False,
     progress: Callable[[str], None] | None = None,
+    px4_dir: str | os.PathLike[str] | None = None,
 ) -> list[str]:
     """Build every multicosim image locally; return their tags.
 
     ``base``: the base image to build on (default: python:3.11-slim if present locally, else
-    multicosim's Debian base, made with debootstrap if missing).
+    multicosim's Debian base, made with debootstrap if missing). ``px4_dir``: also build the
+    real-PX4 image from that PX4 SITL directory (``build_px4``).
     """
     api = client().api
     # Parallel test workers (xdist) all ask for the images: build them once, in turn.
-    lock_path = Path(tempfile.gettempdir()) / f"multicosim-{os.getuid()}-build.lock"
-    with open(lock_path, "w") as lock:
+    with open(_BUILD_LOCK, "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
-        return _build_locked(api, base, force, progress)
+        tags = _build_locked(api, base, force, progress)
+    if px4_dir is not None:
+        tags.append(build_px4(px4_dir, force=force, progress=progress))
+    return tags
 
 
 def _build_locked(

@@ -97,7 +97,13 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("at least one of --gcs-port and --api-port is needed")
 
     def ready(ports: list[int]) -> None:
-        print(f"multicosim px4 sitl ready: local ports {ports}", flush=True)
+        # Where ground stations listen (what a user connects), not our links' own ports.
+        where = []
+        if args.gcs_port:
+            where.append(f"QGroundControl on UDP {args.gcs_port}")
+        if args.api_port:
+            where.append(f"MAVSDK on udpin://0.0.0.0:{args.api_port}")
+        print(f"multicosim px4 sitl ({args.fidelity}) ready: {', '.join(where)}", flush=True)
 
     with contextlib.suppress(KeyboardInterrupt):
         run_sitl(
