@@ -17,6 +17,7 @@ from ._airframe import NONE_IRIS, Airframe
 __all__ = ["MultirotorController", "Vehicle", "position_control"]
 
 GRAVITY = 9.80665
+HOVER_THRUST = 0.5  # PX4's MPC_THR_HOVER: the normalized thrust that hovers
 
 
 class Vehicle:
@@ -129,9 +130,51 @@ class MultirotorController:
         n = math.sqrt(yx * yx + yy * yy + yz * yz)
         yx, yy, yz = yx / n, yy / n, yz / n
         xx, xy, xz = yy * zz - yz * zy, yz * zx - yx * zz, yx * zy - yy * zx
-        # Attitude error e_R = vee(Rd^T R - R^T Rd) / 2 (geometric control, body frame).
-        # Rd columns: x_d, y_d, z_d; R is row-major body-to-NED.
         rd = (xx, yx, zx, xy, yy, zy, xz, yz, zz)
+        return self._attitude_rate(dt, rd, thrust, r, rates)
+
+    def attitude(
+        self,
+        dt: float,
+        q_sp: tuple[float, float, float, float],
+        thrust: float,
+        r: tuple[float, ...],
+        rates: tuple[float, float, float],
+    ) -> list[float]:
+        """Motor commands for attitude ``q_sp`` (w, x, y, z) and normalized ``thrust``.
+
+        Thrust 0..1 as PX4's attitude setpoints give it, scaled so that MPC_THR_HOVER (0.5)
+        holds the vehicle's weight.
+        """
+        w, x, y, z = q_sp
+        n = math.sqrt(w * w + x * x + y * y + z * z) or 1.0
+        w, x, y, z = w / n, x / n, y / n, z / n
+        rd = (
+            1 - 2 * (y * y + z * z),
+            2 * (x * y - w * z),
+            2 * (x * z + w * y),
+            2 * (x * y + w * z),
+            1 - 2 * (x * x + z * z),
+            2 * (y * z - w * x),
+            2 * (x * z - w * y),
+            2 * (y * z + w * x),
+            1 - 2 * (x * x + y * y),
+        )
+        force = _clamp(thrust, 0.0, 1.0) / HOVER_THRUST * self.v.mass * GRAVITY
+        self.thrust = force
+        return self._attitude_rate(dt, rd, force, r, rates)
+
+    def _attitude_rate(
+        self,
+        dt: float,
+        rd: tuple[float, ...],
+        thrust: float,
+        r: tuple[float, ...],
+        rates: tuple[float, float, float],
+    ) -> list[float]:
+        """Attitude and rate loops: motor commands for attitude ``rd`` (row-major, to NED)."""
+        v = self.v
+        # Attitude error e_R = vee(Rd^T R - R^T Rd) / 2 (geometric control, body frame).
         m = [0.0] * 9  # M = Rd^T R
         for i in range(3):
             for j in range(3):

@@ -63,6 +63,9 @@ class Estimator:
         self._sf_time = 0.0
         self._last_gps_vel: tuple[float, float, float] | None = None
         self._baro_alt = 0.0
+        self._gps_d: float | None = None  # height (down) the last GPS fix gave
+        self._baro_bad_since: float | None = None
+        self.baro_rejected = False  # barometer inconsistent with GPS: height from GPS
         self._acc_b = (0.0, 0.0, -GRAVITY)
 
     # -- derived state ----------------------------------------------------------------------
@@ -224,6 +227,19 @@ class Estimator:
         if self.baro_offset is None or self.origin is None:
             return
         d_meas = -(pressure_alt - self.baro_offset - self.origin_alt)
+        # A stuck or wrong barometer disagrees with GPS for a while: stop fusing it then,
+        # as PX4's EKF2 does with its height sources.
+        gps_d = self._gps_d
+        if gps_d is not None and now - self.last_gps < GPS_TIMEOUT and abs(d_meas - gps_d) > 8.0:
+            if self._baro_bad_since is None:
+                self._baro_bad_since = now
+            elif now - self._baro_bad_since > 2.0:
+                self.baro_rejected = True
+        else:
+            self._baro_bad_since = None
+            self.baro_rejected = False
+        if self.baro_rejected:
+            return
         err = d_meas - self.pos[2]
         self.pos[2] += K_BARO_POS * err
         self.vel[2] += K_BARO_VEL * err
@@ -273,7 +289,8 @@ class Estimator:
         vel[0] += K_GPS_VEL * (vn - vel[0]) + K_GPS_VEL_FROM_POS * en
         vel[1] += K_GPS_VEL * (ve - vel[1]) + K_GPS_VEL_FROM_POS * ee
         vel[2] += K_GPS_VEL * 0.5 * (vd - vel[2])
-        if self.last_baro < 0 or now - self.last_baro > 1.0:
+        self._gps_d = self.origin_alt - alt
+        if self.last_baro < 0 or now - self.last_baro > 1.0 or self.baro_rejected:
             pos[2] += K_GPS_POS * (self.origin_alt - alt - pos[2])
         last = self._last_gps_vel
         if fresh and last is not None and self._sf_time > 0.02:

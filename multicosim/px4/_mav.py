@@ -67,17 +67,26 @@ class SubMode(enum.IntEnum):
     MISSION = 4
     RTL = 5
     LAND = 6
+    FOLLOW_TARGET = 8
+    PRECLAND = 9
 
 
 class Mode(enum.Enum):
     """The flight modes our autopilot implements, as (main, sub) PX4 custom modes."""
 
+    MANUAL = (MainMode.MANUAL, SubMode.NONE)
+    ALTCTL = (MainMode.ALTCTL, SubMode.NONE)
     POSCTL = (MainMode.POSCTL, SubMode.NONE)
+    ACRO = (MainMode.ACRO, SubMode.NONE)
+    OFFBOARD = (MainMode.OFFBOARD, SubMode.NONE)
+    STABILIZED = (MainMode.STABILIZED, SubMode.NONE)
     TAKEOFF = (MainMode.AUTO, SubMode.TAKEOFF)
     LOITER = (MainMode.AUTO, SubMode.LOITER)
     MISSION = (MainMode.AUTO, SubMode.MISSION)
     RTL = (MainMode.AUTO, SubMode.RTL)
     LAND = (MainMode.AUTO, SubMode.LAND)
+    FOLLOW_TARGET = (MainMode.AUTO, SubMode.FOLLOW_TARGET)
+    PRECLAND = (MainMode.AUTO, SubMode.PRECLAND)
 
     @property
     def custom_mode(self) -> int:
