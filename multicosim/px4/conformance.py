@@ -82,9 +82,15 @@ class _Link:
     def __init__(self, port: int, timeout: float) -> None:
         from pymavlink import mavutil
 
+        from ._mav import dialect
+
         self.conn: Any = mavutil.mavlink_connection(
             f"udpin:127.0.0.1:{port}", source_system=245, source_component=190
         )
+        # MAVLink 2 with the common dialect (mavutil's default is MAVLink 1, which has no
+        # mission_type: fence and rally lists would arrive as missions).
+        self.conn.mav = dialect().MAVLink(self.conn, srcSystem=245, srcComponent=190)
+        self.conn.mav.robust_parsing = True
         self.mav: Any = self.conn.mav
         self.sim_ms = 0
         self.timeout = timeout
@@ -261,7 +267,7 @@ def _commands(link: _Link) -> dict[str, Any]:
     out["DO_SET_MISSION_CURRENT no mission"] = link.command("DO_SET_MISSION_CURRENT", 3)
     out["DO_PAUSE_CONTINUE disarmed"] = link.command("DO_PAUSE_CONTINUE", 0)
     out["DO_MOTOR_TEST"] = link.command("DO_MOTOR_TEST", 1, 0, 0, 1, 1)
-    out["INJECT_FAILURE disabled"] = link.command("INJECT_FAILURE", 3, 1, 0)
+    out["INJECT_FAILURE motor off"] = link.command("INJECT_FAILURE", 101, 1, 1)
     out["NAV_TAKEOFF disarmed"] = link.command("NAV_TAKEOFF", nan, 0, 0, nan, nan, nan, nan)
     out["MISSION_START no mission"] = link.command("MISSION_START", 0, 0)
     out["USER_1"] = link.command("USER_1")
