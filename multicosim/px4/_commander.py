@@ -101,9 +101,10 @@ class Commander(State):
         As PX4 does, OFFBOARD is entered only while setpoints arrive; otherwise the request
         is acknowledged and the mode stays as it was.
         """
-        if mode in POSITION_MODES and not self.est.position_ok(self._now):
+        # Disarmed, any mode may be selected (PX4 checks its requirements when arming).
+        if self.armed and mode in POSITION_MODES and not self.est.position_ok(self._now):
             return "no valid position"
-        if mode == Mode.RTL and self.home is None:
+        if self.armed and mode == Mode.RTL and self.home is None:
             return "no home position"
         if mode == Mode.OFFBOARD and not self._offboard_fresh():
             return None
@@ -111,6 +112,7 @@ class Commander(State):
             return None
         self.mode = mode
         self._phase = ""
+        self._follow_adjust = [0.0, 0.0, 0.0]
         self._target = None
         if not self.landed:
             self._hold = (self.est.pos[0], self.est.pos[1], self.est.pos[2])
@@ -149,10 +151,10 @@ class Commander(State):
                 self._flew = True
                 self._touch_since = None
                 self._dirty.add("EXTENDED_SYS_STATE")
-        elif self._vz_sp > 0.2 and abs(est.vel[2]) < 0.15:
+        elif self._vz_sp > 0.2 and abs(est.vel[2]) < 0.25:
             if self._touch_since is None:
                 self._touch_since = now
-            elif now - self._touch_since > 1.0:
+            elif now - self._touch_since > 0.7:
                 self._landing_detected()
         else:
             self._touch_since = None

@@ -13,6 +13,7 @@ import math
 import numpy as np
 
 from ._airframe import NONE_IRIS, Airframe
+from ._estimator import rotation_matrix
 
 __all__ = ["MultirotorController", "Vehicle", "position_control"]
 
@@ -149,17 +150,7 @@ class MultirotorController:
         w, x, y, z = q_sp
         n = math.sqrt(w * w + x * x + y * y + z * z) or 1.0
         w, x, y, z = w / n, x / n, y / n, z / n
-        rd = (
-            1 - 2 * (y * y + z * z),
-            2 * (x * y - w * z),
-            2 * (x * z + w * y),
-            2 * (x * y + w * z),
-            1 - 2 * (x * x + z * z),
-            2 * (y * z - w * x),
-            2 * (x * z - w * y),
-            2 * (y * z + w * x),
-            1 - 2 * (x * x + y * y),
-        )
+        rd = rotation_matrix(w, x, y, z)
         force = _clamp(thrust, 0.0, 1.0) / HOVER_THRUST * self.v.mass * GRAVITY
         self.thrust = force
         return self._attitude_rate(dt, rd, force, r, rates)

@@ -16,7 +16,7 @@ import math
 
 from ..geo import LocalProjection
 
-__all__ = ["Estimator"]
+__all__ = ["Estimator", "rotation_matrix"]
 
 GRAVITY = 9.80665
 
@@ -26,9 +26,27 @@ K_GPS_VEL = 0.35
 K_GPS_VEL_FROM_POS = 0.1
 K_BARO_POS = 0.04  # 50 Hz
 K_BARO_VEL = 0.01
+K_BARO_VEL_ALONE = 0.05  # without GPS, the barometer alone damps the vertical speed
+MAG_GATE = 0.5  # rad: a heading innovation beyond this is rejected (a faulty magnetometer)
+STUCK_AFTER = 0.25  # s of bit-identical readings after which a sensor is taken as frozen
 K_TILT = 2.0  # rad/s per rad of tilt error
 K_YAW = 0.6
 GPS_TIMEOUT = 0.5
+
+
+def rotation_matrix(w: float, x: float, y: float, z: float) -> tuple[float, ...]:
+    """Row-major rotation matrix of the unit quaternion (w, x, y, z)."""
+    return (
+        1 - 2 * (y * y + z * z),
+        2 * (x * y - w * z),
+        2 * (x * z + w * y),
+        2 * (x * y + w * z),
+        1 - 2 * (x * x + z * z),
+        2 * (y * z - w * x),
+        2 * (x * z - w * y),
+        2 * (y * z + w * x),
+        1 - 2 * (x * x + y * y),
+    )
 
 
 def _wrap(a: float) -> float:
@@ -66,24 +84,14 @@ class Estimator:
         self._gps_d: float | None = None  # height (down) the last GPS fix gave
         self._baro_bad_since: float | None = None
         self.baro_rejected = False  # barometer inconsistent with GPS: height from GPS
+        self._last_reading: dict[str, tuple[object, float]] = {}
         self._acc_b = (0.0, 0.0, -GRAVITY)
 
     # -- derived state ----------------------------------------------------------------------
 
     def rotation(self) -> tuple[float, ...]:
         """Row-major body-to-NED rotation matrix."""
-        w, x, y, z = self.q
-        return (
-            1 - 2 * (y * y + z * z),
-            2 * (x * y - w * z),
-            2 * (x * z + w * y),
-            2 * (x * y + w * z),
-            1 - 2 * (x * x + z * z),
-            2 * (y * z - w * x),
-            2 * (x * z - w * y),
-            2 * (y * z + w * x),
-            1 - 2 * (x * x + y * y),
-        )
+        return rotation_matrix(*self.q)
 
     def euler(self) -> tuple[float, float, float]:
         """Roll, pitch, yaw (rad)."""
@@ -204,8 +212,24 @@ class Estimator:
             0.0,  # heading is the magnetometer's business
         )
 
+    def _stuck(self, name: str, now: float, reading: object, moving: bool) -> bool:
+        """Whether a sensor repeats exactly the same reading while the vehicle moves.
+
+        A reading that cannot change while the vehicle turns (magnetometer) or climbs
+        (barometer) is frozen; it is ignored, as PX4's sensor checks drop a stale sensor.
+        An ideal sensor on a still vehicle repeats itself legitimately.
+        """
+        last = self._last_reading.get(name)
+        if last is None or last[0] != reading or not moving:
+            self._last_reading[name] = (reading, now)
+            return False
+        return now - last[1] > STUCK_AFTER
+
     def mag(self, now: float, m: tuple[float, float, float]) -> None:
         """Correct heading with a magnetometer sample (gauss, FRD)."""
+        turning = max(abs(self.rates[0]), abs(self.rates[1]), abs(self.rates[2])) > 0.05
+        if self._stuck("mag", now, m, turning):
+            return
         self.last_mag = now
         r = self.rotation()
         mn = r[0] * m[0] + r[1] * m[1] + r[2] * m[2]
@@ -218,10 +242,13 @@ class Estimator:
             self._set_euler(roll, pitch, _wrap(yaw - err))
             self.attitude_ok = True
             return
-        self._yaw_corr = -K_YAW * err
+        # Innovation gate: a heading this far off is the magnetometer's fault, not ours.
+        self._yaw_corr = -K_YAW * err if abs(err) < MAG_GATE else 0.0
 
     def baro(self, now: float, pressure_alt: float) -> None:
         """Correct height with a barometric altitude (m)."""
+        if self._stuck("baro", now, pressure_alt, abs(self.vel[2]) > 0.3):
+            return
         self.last_baro = now
         self._baro_alt = pressure_alt
         if self.baro_offset is None or self.origin is None:
@@ -242,7 +269,8 @@ class Estimator:
             return
         err = d_meas - self.pos[2]
         self.pos[2] += K_BARO_POS * err
-        self.vel[2] += K_BARO_VEL * err
+        alone = now - self.last_gps > GPS_TIMEOUT
+        self.vel[2] += (K_BARO_VEL_ALONE if alone else K_BARO_VEL) * err
 
     def gps(
         self,

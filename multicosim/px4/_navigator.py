@@ -36,7 +36,7 @@ __all__ = ["Navigator"]
 _ZEROS12 = [0.0] * 12
 MANUAL_DEADZONE = 0.05
 MANUAL_YAW_RATE = math.radians(150.0)  # MPC_MAN_Y_MAX
-FOLLOW_SPEED = 15.0
+FOLLOW_HEIGHT_RATE, FOLLOW_DISTANCE_RATE, FOLLOW_ANGLE_RATE = 1.5, 2.0, 1.5  # per full stick
 
 # (position setpoint, vertical speed override, idle, horizontal velocity override)
 Target = tuple[Vec3, float | None, bool, tuple[float, float] | None]
@@ -314,13 +314,21 @@ class Navigator(State):
             return self._hold, None, False, None
         lat, lon, _alt, vn, ve, _vd, _t = tgt
         n, e = est.origin.project(lat, lon)
+        adj = self._follow_adjust
+        m = self._manual
+        if m is not None and self._now - m[4] < 1.0:
+            # Sticks adjust the follow geometry (PX4's FlightTaskAutoFollowTarget rates).
+            dt = self.period
+            adj[0] += (2.0 * m[2] - 1.0) * FOLLOW_HEIGHT_RATE * dt
+            adj[1] += m[0] * FOLLOW_DISTANCE_RATE * dt
+            adj[2] += m[1] * FOLLOW_ANGLE_RATE * dt
         course = math.atan2(ve, vn) if math.hypot(vn, ve) > 0.1 else self._follow_course
-        angle = course + math.radians(p["FLW_TGT_FA"])
-        dist = p["FLW_TGT_DST"]
+        angle = course + math.radians(p["FLW_TGT_FA"]) + adj[2]
+        dist = max(p["FLW_TGT_DST"] + adj[1], 1.0)
         sp = (n + dist * math.cos(angle), e + dist * math.sin(angle))
         if math.hypot(n - est.pos[0], e - est.pos[1]) > 2.0:
             self._yaw_sp = math.atan2(e - est.pos[1], n - est.pos[0])  # face the target
-        self._hold = (sp[0], sp[1], self._home_d() - p["FLW_TGT_HT"])
+        self._hold = (sp[0], sp[1], self._home_d() - p["FLW_TGT_HT"] - adj[0])
         return self._hold, None, False, None
 
     def _manual_setpoint(self) -> Target:
@@ -391,8 +399,12 @@ class Navigator(State):
         )
         if vxy is not None:
             vel_sp = (vxy[0], vxy[1], vel_sp[2])
+        vel = est.vel
         if self.failsafe is not None or not est.position_ok(self._now):
-            vel_sp = (0.0, 0.0, vel_sp[2])  # no position: hold still horizontally
+            # No position: a blind descent, level, on the vertical speed alone (the horizontal
+            # velocity estimate drifts without GPS).
+            vel_sp = (0.0, 0.0, vel_sp[2])
+            vel = [0.0, 0.0, est.vel[2]]
         self._vz_sp = vel_sp[2]
         if self.velocity_vehicle:
             return HilActuatorControls(
@@ -401,7 +413,5 @@ class Navigator(State):
                 ARMED_FLAG,
                 ACTUATOR_FLAG_VELOCITY | 1,
             )
-        motors = self.ctl.update(
-            self.period, est.vel, vel_sp, self._yaw_sp, est.rotation(), est.rates
-        )
+        motors = self.ctl.update(self.period, vel, vel_sp, self._yaw_sp, est.rotation(), est.rates)
         return HilActuatorControls(t_us, [*motors, *_ZEROS12], ARMED_FLAG, 1)

@@ -127,9 +127,9 @@ class Server(State):
         self._offboard = Setpoint(self._now, attitude=q, thrust=thrust)  # type: ignore[arg-type]
 
     def _on_follow_target(self, m: Any) -> None:
-        if m.lat == 0 and m.lon == 0:
-            return  # velocity alone: nothing to follow (PX4 needs a position)
         lat, lon = m.lat * 1e-7, m.lon * 1e-7
+        if (m.lat == 0 and m.lon == 0) or abs(lat) > 90 or abs(lon) > 180:
+            return  # velocity alone: nothing to follow (PX4 needs a position)
         vel = [float(v) for v in m.vel]
         if not all(math.isfinite(v) for v in vel):
             vel = [0.0, 0.0, 0.0]

@@ -128,6 +128,7 @@ class State:
     _offboard: Setpoint | None
     _manual: tuple[float, float, float, float, float] | None  # x, y, z, r, time
     _follow: tuple[float, float, float, float, float, float, float] | None
+    _follow_adjust: list[float]  # height, distance, angle set by the sticks while following
     _follow_course: float  # rad, the target's course (from its velocity or its track)
     # Ground-station link.
     _d: Any

@@ -220,7 +220,7 @@ class Tester:
     async def wait_until_altitude(self, rel: float, timeout: float, delta: float = 0.1) -> None:
         async def there() -> bool:
             pv = await self.telemetry.position_velocity_ned()
-            return abs(rel + pv.position.down_m) <= delta
+            return bool(abs(rel + pv.position.down_m) <= delta)
 
         await self.poll(there, timeout, f"altitude {rel} m +- {delta}")
 
@@ -289,7 +289,7 @@ class Tester:
 
     def monitor(self, coro: Awaitable[None]) -> None:
         """Run a telemetry check alongside the case (PX4's subscriptions)."""
-        self._tasks.append(asyncio.ensure_future(coro))  # type: ignore[arg-type]
+        self._tasks.append(asyncio.ensure_future(coro))
 
     async def _mission_legs(self) -> list[tuple[float, float, float]]:
         plan = await _value(self.mission.download_mission())
