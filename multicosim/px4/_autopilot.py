@@ -21,6 +21,7 @@ import msgspec
 
 from .._errors import ConfigurationError
 from .._runtime import StepContext, Subscription
+from . import _mav
 from ._commander import Commander
 from ._commands import Commands
 from ._config import Topics
@@ -91,6 +92,7 @@ class Autopilot(Commander, Navigator, Failures, Commands, ParamServer, Missions,
         self._d = dialect()
         self.mav = new_link(spec.system_id, 1)
         self._out = []
+        self._out_msgs = []
         self._subs: list[tuple[Subscription[Any], bool]] = []
         self._uplink: Subscription[MavlinkPacket] | None = None
         self._truth: Subscription[Truth] | None = None
@@ -188,8 +190,12 @@ class Autopilot(Commander, Navigator, Failures, Commands, ParamServer, Missions,
         ctx.publish(self.spec.topics.actuators, pack(out) if self.spec.wire == "mavlink" else out)
         self._stream()
         if self._out:
-            ctx.publish(self.spec.downlink, MavlinkPacket(b"".join(self._out)))
+            data = b"".join(self._out)
+            # An in-process ground station gets the messages without parsing the frames.
+            _mav.remember(data, list(zip(self._out, self._out_msgs, strict=True)))
+            ctx.publish(self.spec.downlink, MavlinkPacket(data))
             self._out = []
+            self._out_msgs = []
 
 
 def autopilot(spec: AutopilotSpec) -> Autopilot:

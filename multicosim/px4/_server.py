@@ -38,6 +38,7 @@ class Server(State):
     def _send(self, msg: Any) -> None:
         mav = self.mav
         self._out.append(bytes(msg.pack(mav)))
+        self._out_msgs.append(None)  # decoded by the receiver (rare, low-rate messages)
         mav.seq = (mav.seq + 1) & 0xFF
 
     def _text(self, text: str, severity: int = SEV_INFO) -> None:

@@ -134,6 +134,7 @@ class State:
     _d: Any
     mav: Any
     _out: list[bytes]
+    _out_msgs: list[Any]  # per frame in _out, its message as decoded, or None
     _gcs: tuple[int, int]
     _dirty: set[str]
     _after_ack: list[Any]

@@ -135,7 +135,7 @@ class Streams(State):
                     slot[1] = max(slot[1] + slot[0], now) if slot[0] != math.inf else math.inf
                 msg = build()
                 if type(msg) is bytes:
-                    self._out.append(msg)
+                    self._out.append(msg)  # pack_scalar kept its message in _out_msgs
                 else:
                     self._send(msg)
             if slot[1] < next_due:
@@ -300,6 +300,7 @@ class Streams(State):
             round(vel[1] * 100),
             round(vel[2] * 100),
             hdg,
+            keep=self._out_msgs,
         )
 
     def _msg_local_position_ned(self) -> bytes:
@@ -314,6 +315,7 @@ class Streams(State):
             vel[0],
             vel[1],
             vel[2],
+            keep=self._out_msgs,
         )
 
     def _msg_attitude(self) -> bytes:
@@ -329,6 +331,7 @@ class Streams(State):
             r[0],
             r[1],
             r[2],
+            keep=self._out_msgs,
         )
 
     def _msg_attitude_quaternion(self) -> Any:
