@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import time
+from pathlib import Path
 from typing import Any
 
 from _common import write_result
@@ -53,7 +54,11 @@ def fly() -> tuple[float, float]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=5)
+    parser.add_argument("--quick", action="store_true", help="two repeats")
+    parser.add_argument("--output", type=Path, default=None)
     args = parser.parse_args()
+    if args.quick:
+        args.repeat = 2
     remember = _mav.remember
     ways: dict[str, Any] = {"messages": remember, "frames": lambda data, frames: None}
     best: dict[str, tuple[float, float]] = {}
@@ -76,7 +81,7 @@ def main() -> None:
             f"{name:10s} {row['sim_s']:6.1f} s simulated in {row['send_s'] * 1e3:6.1f} ms: "
             f"{row['speed_factor']:6.0f}x (target {TARGET:g}x)"
         )
-    write_result("px4_low", {"benchmark": "px4_low", "target": TARGET, "ways": rows})
+    write_result("px4_low", {"target": TARGET, "ways": rows}, args.output)
 
 
 if __name__ == "__main__":

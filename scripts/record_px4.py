@@ -24,7 +24,8 @@ from pathlib import Path
 
 from multicosim.px4 import conformance
 
-API_PORT = 14540
+API_PORT = 14540  # where PX4's API link sends, plus its instance number
+PX4_API_PORT = 14580  # where it listens
 
 
 def main() -> int:
@@ -37,8 +38,9 @@ def main() -> int:
             Path(conformance.__file__).parent / "data" / f"px4-{conformance.PX4_VERSION}.json"
         ),
     )
+    parser.add_argument("--log", default=None, help="keep the SITL's output in this file")
     args = parser.parse_args()
-    with tempfile.TemporaryFile() as log:
+    with open(args.log, "w+b") if args.log else tempfile.TemporaryFile() as log:
         proc = subprocess.Popen(
             [
                 sys.executable,
@@ -56,7 +58,13 @@ def main() -> int:
         )
         try:
             instance = _instance(proc, log)
-            data = conformance.record(API_PORT + instance, metadata=True)
+            data = conformance.record(
+                API_PORT + instance, peer=PX4_API_PORT + instance, metadata=True
+            )
+        except BaseException:
+            log.seek(0)
+            print(log.read().decode(errors="replace")[-3000:], file=sys.stderr)
+            raise
         finally:
             os.killpg(proc.pid, signal.SIGTERM)
             proc.wait(30)

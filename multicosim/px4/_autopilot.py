@@ -100,6 +100,7 @@ class Autopilot(Commander, Navigator, Failures, Commands, ParamServer, Missions,
         self._now = 0.0
         self._last_imu_us = None
         self.failures = {}
+        self.motors_off = set()
         # Commander state.
         self.armed = False
         self.mode = Mode.LOITER

@@ -19,6 +19,7 @@ __all__ = ["FAILURE_UNITS", "Failures"]
 
 # MAV_FAILURE_UNIT -> our sensor name; MAV_FAILURE_TYPE numbers.
 FAILURE_UNITS = {0: "gyro", 1: "accel", 2: "mag", 3: "baro", 4: "gps"}
+UNIT_MOTOR = 101
 FAILURE_OK, FAILURE_OFF, FAILURE_STUCK = 0, 1, 2
 
 
@@ -43,12 +44,22 @@ class Failures(State):
     """Sensor intake with injected failures (a part of :class:`~._autopilot.Autopilot`)."""
 
     failures: dict[str, Fault]
+    motors_off: set[int]
     _last_imu_us: int | None
 
     def inject_failure(self, unit: int, kind: int, instance: int) -> int:
         """MAV_CMD_INJECT_FAILURE: the COMMAND_ACK result."""
         if self.params["SYS_FAILURE_EN"] < 0.5:
             return RESULT_DENIED
+        if unit == UNIT_MOTOR and kind in (FAILURE_OK, FAILURE_OFF):
+            # Motor ``instance`` (1-based) stops, as PX4's failure detector stops it.
+            motor = max(instance, 1) - 1
+            if kind == FAILURE_OFF:
+                self.motors_off.add(motor)
+                self._text(f"Failure injected: motor {motor} off")
+            else:
+                self.motors_off.discard(motor)
+            return RESULT_ACCEPTED
         sensor = FAILURE_UNITS.get(unit)
         if sensor is None or kind not in (FAILURE_OK, FAILURE_OFF, FAILURE_STUCK):
             return RESULT_UNSUPPORTED

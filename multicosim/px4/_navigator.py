@@ -414,4 +414,7 @@ class Navigator(State):
                 ACTUATOR_FLAG_VELOCITY | 1,
             )
         motors = self.ctl.update(self.period, vel, vel_sp, self._yaw_sp, est.rotation(), est.rates)
+        for i in self.motors_off:
+            if i < len(motors):
+                motors[i] = 0.0
         return HilActuatorControls(t_us, [*motors, *_ZEROS12], ARMED_FLAG, 1)

@@ -93,6 +93,13 @@ class Params(dict[str, float]):
         self[name] = float(value)
         return True
 
+    def assign(self, name: str, value: float) -> bool:
+        """Set ``name`` to any finite ``value`` (as a PARAM_SET does); whether it was set."""
+        if name not in self or not math.isfinite(value):
+            return False
+        self[name] = float(value)
+        return True
+
     def type_of(self, name: str) -> int:
         """The MAVLink type of ``name``."""
         return table()[name].type

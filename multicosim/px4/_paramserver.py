@@ -59,8 +59,8 @@ class ParamServer(State):
         name = _param_name(m.param_id)
         if name not in self.params:
             return  # PX4 does not answer for names it does not have
-        # Out of PX4's range (or not a number): unchanged, and the echo says so.
-        self.params.set(name, decode_value(m.param_value, self.params.type_of(name)))
+        # PX4 takes any value over MAVLink, its metadata's range notwithstanding.
+        self.params.assign(name, decode_value(m.param_value, self.params.type_of(name)))
         self._param_value(name)  # the echo tells the sender the value now in effect
 
 

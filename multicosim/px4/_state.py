@@ -99,6 +99,7 @@ class State:
     ctl: MultirotorController
     velocity_vehicle: bool
     _now: float
+    motors_off: set[int]  # motors stopped by failure injection (0-based)
     # Commander.
     armed: bool
     mode: Mode

@@ -140,9 +140,9 @@ def test_parameter_protocol(gcs: Gcs) -> None:
     gcs.mav.param_set_send(1, 1, b"MPC_XY_CRUISE", 7.5, 9)
     echo = gcs.recv("PARAM_VALUE", cond=lambda m: m.param_id == "MPC_XY_CRUISE")
     assert echo.param_value == pytest.approx(7.5)
-    gcs.mav.param_set_send(1, 1, b"MPC_XY_CRUISE", 500.0, 9)  # out of range: unchanged
+    gcs.mav.param_set_send(1, 1, b"MPC_XY_CRUISE", 500.0, 9)  # out of range: PX4 takes it
     echo = gcs.recv("PARAM_VALUE", cond=lambda m: m.param_id == "MPC_XY_CRUISE")
-    assert echo.param_value == pytest.approx(7.5)
+    assert echo.param_value == pytest.approx(500.0)
     gcs.mav.param_request_read_send(1, 1, b"NAV_ACC_RAD", -1)
     assert gcs.recv("PARAM_VALUE", cond=lambda m: m.param_id == "NAV_ACC_RAD").param_value == 2.0
 

@@ -117,19 +117,25 @@ class Tester:
         *,
         fail: bool = True,
     ) -> bool:
-        """Whether ``cond`` came true within ``timeout`` simulated seconds (REQUIRE if fail)."""
+        """Whether ``cond`` came true within ``timeout`` simulated seconds (REQUIRE if fail).
+
+        As PX4's tester, it looks 100 times per timeout (a sleep is looked at every 1 ms).
+        """
         while self._sim_us == 0:
             await asyncio.sleep(0.01)
         start = self.now
         wall = time.monotonic() + timeout / SPEED + WALL_SLACK
+        step = timeout / 100 if what else 0.001
         while True:
             if await cond():
                 return True
+            looked = self.now
+            while self.now - looked < step and self.now - start < timeout:
+                if time.monotonic() > wall:
+                    raise Failed(f"the simulation stalled while waiting for {what or 'time'}")
+                await asyncio.sleep(0.002)
             if self.now - start >= timeout:
                 break
-            if time.monotonic() > wall:
-                raise Failed(f"the simulation stalled while waiting for {what or 'time'}")
-            await asyncio.sleep(0.005)
         if fail:
             raise Failed(f"timed out after {timeout:g} s (simulated) waiting for {what}")
         return False
