@@ -61,7 +61,7 @@ def position_control(
     down: float,
     vz_override: float | None = None,
     kp_xy: float = 0.95,
-    kp_z: float = 1.0,
+    kp_z: float = 1.5,
 ) -> tuple[float, float, float]:
     """Velocity setpoint (NED) towards position ``sp``, limited like PX4's MPC_* speeds.
 

@@ -36,6 +36,44 @@ WALL_SLACK = 120.0  # wall seconds beyond a simulated timeout before a stalled r
 
 pytestmark = pytest.mark.xdist_group("px4_suite")
 
+BOTH, REAL = ("builtin", "sitl"), ("sitl",)
+NO_GOTO_MODE = (
+    "PX4 v1.15 has no Goto flight mode (AUTO sub mode 21 came in a later PX4): DO_REPOSITION "
+    "flies there in Hold"
+)
+FAILURE_INJECTION_ENABLED = (
+    "PX4 v1.15's SITL start-up sets SYS_FAILURE_EN=1 (etc/init.d-posix/rcS): the motor failure "
+    "is injected, not refused as disabled"
+)
+# Cases that fail on real PX4 v1.15.4 flying our world, and why; strict where the built-in
+# autopilot fails them for the same reason (real PX4's own runs vary: its modules are threads).
+EXPECTED_FAILURES: dict[str, tuple[tuple[str, ...], str, bool]] = {
+    "test_goto_reposition_flies_to_and_holds_at_the_target": (BOTH, NO_GOTO_MODE, False),
+    "test_goto_pausing_mid_reposition_switches_to_hold": (BOTH, NO_GOTO_MODE, False),
+    "test_goto_speed_change_while_flying_is_applied": (BOTH, NO_GOTO_MODE, False),
+    "test_failure_injection_reject_mid_air_when_it_is_disabled": (
+        BOTH,
+        FAILURE_INJECTION_ENABLED,
+        False,
+    ),
+    "test_failure_injection_reject_before_arming": (BOTH, FAILURE_INJECTION_ENABLED, True),
+    "test_takeoff_and_hold_position": (
+        REAL,
+        "real PX4 in our world is not within 0.35 m of the 10 m takeoff altitude after 30 s",
+        False,
+    ),
+    "test_follow_target_position_streaming": (
+        REAL,
+        "real PX4 in our world follows from the side (follow angle off by more than 11 m)",
+        False,
+    ),
+    "test_follow_target_rc_adjustment": (
+        REAL,
+        "real PX4 in our world leaves follow-target mode (MAVSDK: NOT_ACTIVE)",
+        False,
+    ),
+}
+
 
 class Failed(AssertionError):
     """A REQUIRE of PX4's tester failed: the case stops here."""
@@ -466,6 +504,9 @@ def autopilot(request: pytest.FixtureRequest) -> str:
     """Which autopilot flies: the built-in one (medium fidelity) or real PX4 SITL."""
     if request.param == "sitl" and real_px4(request.config).binary is None:
         pytest.skip("real PX4 needs a SITL binary (--mcs-px4-binary or MCS_PX4_BINARY)")
+    expected = EXPECTED_FAILURES.get(getattr(request.node, "originalname", ""))
+    if expected is not None and request.param in expected[0]:
+        request.node.add_marker(pytest.mark.xfail(reason=expected[1], strict=expected[2]))
     return str(request.param)
 
 
@@ -923,7 +964,7 @@ def test_follow_target_rc_adjustment(vehicle: Any) -> None:
         initial = target_pos
         rate = 50
         for i in range(60 * rate + 1):
-            await t.follow_me.set_target_location(location)
+            await _succeeds(t.follow_me.set_target_location(location))  # unchecked in PX4's
             pos = await t.position_ned()
             x, z = 0.0, 0.5
             if i == 5 * rate:
@@ -938,7 +979,7 @@ def test_follow_target_rc_adjustment(vehicle: Any) -> None:
             elif i == 15 * rate:
                 away = pos[0] - target_pos[0]
                 t.check(away > 10.0 + 2.0 * 3.0 * 0.5, f"follow distance lengthened ({away:.1f})")
-            await t.manual.set_manual_control_input(x, 0.0, z, 0.0)
+            await _succeeds(t.manual.set_manual_control_input(x, 0.0, z, 0.0))
             await t.sleep_for(1 / rate)
         await t.land()
         await t.wait_until_disarmed(300)
