@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from ._control import GRAVITY
 from ._mav import Mode
 from ._state import (
     CMD_LAND,
@@ -49,8 +50,7 @@ class Commander(State):
         return None
 
     def _failed(self, sensor: str) -> bool:
-        failures: dict[str, object] = getattr(self, "failures", {})
-        return sensor in failures
+        return sensor in self.failures
 
     def arm(self, force: bool = False) -> str | None:
         """Arm (unless a check fails: its reason is returned and sent as STATUSTEXT)."""
@@ -151,10 +151,10 @@ class Commander(State):
                 self._flew = True
                 self._touch_since = None
                 self._dirty.add("EXTENDED_SYS_STATE")
-        elif self._vz_sp > 0.2 and abs(est.vel[2]) < 0.25:
+        elif self._touching():
             if self._touch_since is None:
                 self._touch_since = now
-            elif now - self._touch_since > 0.7:
+            elif now - self._touch_since > (1.0 if self.velocity_vehicle else 0.7):
                 self._landing_detected()
         else:
             self._touch_since = None
@@ -181,6 +181,20 @@ class Commander(State):
             ):
                 self._text("Disarmed: no takeoff", SEV_NOTICE)
                 self.disarm()
+
+    def _touching(self) -> bool:
+        """Asked to descend but not moving down: the ground holds the vehicle.
+
+        On the quadrotor, as PX4's land detector, also low thrust: the velocity loop has
+        wound the thrust well below hover because the ground carries the weight.
+        """
+        if self._vz_sp <= 0.2:
+            return False
+        vz = abs(self.est.vel[2])
+        if self.velocity_vehicle:
+            return vz < 0.15
+        ctl = self.ctl
+        return vz < 0.25 and ctl.thrust < 0.8 * ctl.v.mass * GRAVITY
 
     def _landing_detected(self) -> None:
         est = self.est

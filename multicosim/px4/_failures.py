@@ -44,7 +44,6 @@ class Failures(State):
     """Sensor intake with injected failures (a part of :class:`~._autopilot.Autopilot`)."""
 
     failures: dict[str, Fault]
-    motors_off: set[int]
     _last_imu_us: int | None
 
     def inject_failure(self, unit: int, kind: int, instance: int) -> int:

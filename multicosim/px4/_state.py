@@ -100,6 +100,7 @@ class State:
     velocity_vehicle: bool
     _now: float
     motors_off: set[int]  # motors stopped by failure injection (0-based)
+    failures: dict[str, Any]  # sensor name: its injected failure
     # Commander.
     armed: bool
     mode: Mode

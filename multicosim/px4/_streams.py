@@ -12,7 +12,7 @@ import math
 from functools import cache
 from typing import Any
 
-from ._mav import MainMode, dialect, pack_scalar
+from ._mav import MainMode, Mode, dialect, pack_scalar
 from ._state import (
     LANDED_IN_AIR,
     LANDED_LANDING,
@@ -219,8 +219,6 @@ class Streams(State):
         )
 
     def _msg_extended_sys_state(self) -> Any:
-        from ._mav import Mode
-
         if self.landed:
             state = LANDED_ON_GROUND
         elif self._vz_sp > 0.2 and self.mode in (Mode.LAND, Mode.RTL):
@@ -249,8 +247,6 @@ class Streams(State):
         )
 
     def _msg_mission_current(self) -> Any:
-        from ._mav import Mode
-
         state = self.mission_state if self.mission else MISSION_STATE_NO_MISSION
         in_mission = 1 if self.mode == Mode.MISSION else 2
         seq = min(self.seq, max(len(self.mission) - 1, 0))
