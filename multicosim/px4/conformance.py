@@ -379,9 +379,7 @@ def _missions(link: _Link) -> dict[str, Any]:
     return out
 
 
-def _heartbeat(link: _Link) -> dict[str, Any]:
-    hb = link.wait(lambda m: m.get_type() == "HEARTBEAT", 3.0)
-    assert hb is not None, "no HEARTBEAT"
+def _heartbeat(hb: Any) -> dict[str, Any]:
     return {
         "type": hb.type,
         "autopilot": hb.autopilot,
@@ -418,10 +416,11 @@ def record(
     """
     link = _Link(port, timeout, peer)
     try:
-        assert link.wait(lambda m: m.get_type() == "HEARTBEAT", 30.0) is not None, "no heartbeat"
+        hb = link.wait(lambda m: m.get_type() == "HEARTBEAT", 30.0)
+        assert hb is not None, "no HEARTBEAT within 30 s"
         # Ready: position and home known.
         link.wait(lambda m: m.get_type() == "HOME_POSITION", 60.0)
-        out: dict[str, Any] = {"heartbeat": _heartbeat(link)}
+        out: dict[str, Any] = {"heartbeat": _heartbeat(hb)}
         out["streams"] = _streams(link)
         out.update(_params(link))
         out["param answers"] = _param_answers(link)
