@@ -126,6 +126,8 @@ class Autopilot(Commander, Navigator, Failures, Commands, ParamServer, Missions,
         self._cruise = None
         self._yaw_sp = 0.0
         self._vz_sp = 0.0
+        self._pos_sp = None
+        self._vel_sp = None
         self._reached_at = None
         self._offboard = None
         self._manual = None

@@ -363,8 +363,10 @@ class Navigator(State):
         t_us = round(self._now * 1e6)
         if not self.armed:
             self._vz_sp = 0.0
+            self._pos_sp = self._vel_sp = None
             return HilActuatorControls(t_us, [0.0] * 16, 0, 1)
         sp, vz_override, idle, vxy = self._setpoint()
+        self._pos_sp, self._vel_sp = sp, None
         if idle:
             self._vz_sp = 0.0
             self.ctl.reset()
@@ -406,6 +408,7 @@ class Navigator(State):
             vel_sp = (0.0, 0.0, vel_sp[2])
             vel = [0.0, 0.0, est.vel[2]]
         self._vz_sp = vel_sp[2]
+        self._vel_sp = vel_sp
         if self.velocity_vehicle:
             return HilActuatorControls(
                 t_us,

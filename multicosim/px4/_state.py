@@ -126,6 +126,9 @@ class State:
     _cruise: float | None
     _yaw_sp: float
     _vz_sp: float
+    # The last position and velocity setpoints (local NED), for POSITION_TARGET_LOCAL_NED.
+    _pos_sp: Vec3 | None
+    _vel_sp: Vec3 | None
     _reached_at: float | None
     _offboard: Setpoint | None
     _manual: tuple[float, float, float, float, float] | None  # x, y, z, r, time

@@ -14,6 +14,7 @@ from typing import Any
 
 from ._mav import MainMode, Mode, dialect, pack_scalar
 from ._state import (
+    FRAME_LOCAL_NED,
     LANDED_IN_AIR,
     LANDED_LANDING,
     LANDED_ON_GROUND,
@@ -40,6 +41,10 @@ CONTROL_BITS = 1024 | 2048 | 4096 | 8192 | 16384 | 32768  # rate..xy control, mo
 AHRS_BIT, PREARM_BIT = 0x200000, 0x10000000
 CAPABILITIES = 1 | 2 | 4 | 8 | 256 | 8192  # mission float/int, param float, cmd int, ftp-less
 FLIGHT_SW_VERSION = (1 << 24) | (15 << 16) | (4 << 8) | 255  # "v1.15.4 official", as PX4's
+# POSITION_TARGET_TYPEMASK bits: what a POSITION_TARGET_LOCAL_NED leaves unset.
+TARGET_IGNORE_POSITION, TARGET_IGNORE_VELOCITY = 1 | 2 | 4, 8 | 16 | 32
+TARGET_IGNORE_ACCEL, TARGET_IGNORE_YAW_RATE = 64 | 128 | 256, 2048
+_NANS3 = (math.nan, math.nan, math.nan)
 NOMINAL_RATES = (0.5, 1.0, 2.0, 4.0, 5.0, 10.0, 20.0, 30.0, 50.0, 100.0)
 
 GCS_STREAMS = {  # message: period (s); None for "at the telemetry rate"
@@ -49,6 +54,9 @@ GCS_STREAMS = {  # message: period (s); None for "at the telemetry rate"
     "HOME_POSITION": 2.0,
     "MISSION_CURRENT": 1.0,
     "GPS_RAW_INT": 0.2,
+    # What the position controller is asked for, to set beside what the vehicle does; PX4's
+    # rate on a normal link (a ground station raises it with SET_MESSAGE_INTERVAL).
+    "POSITION_TARGET_LOCAL_NED": 1.0,
     # GLOBAL_POSITION_INT last: a ground station that samples on it has the others fresh.
     "LOCAL_POSITION_NED": None,
     "ATTITUDE": None,
@@ -443,16 +451,28 @@ class Streams(State):
         self._ping_seq = (self._ping_seq + 1) & 0xFFFFFFFF
         return self.message("PING", time_usec=round(self._now * 1e6), seq=self._ping_seq)
 
-    def _msg_position_target_local_ned(self) -> Any:
-        h = self._hold
-        return self.message(
-            "POSITION_TARGET_LOCAL_NED",
-            time_boot_ms=round(self._now * 1000),
-            coordinate_frame=1,
-            x=h[0],
-            y=h[1],
-            z=h[2],
-            yaw=self._yaw_sp,
+    def _msg_position_target_local_ned(self) -> bytes:
+        """What the position controller is asked for, beside what the vehicle does."""
+        pos, vel = self._pos_sp, self._vel_sp
+        mask = TARGET_IGNORE_ACCEL | TARGET_IGNORE_YAW_RATE
+        if pos is None:
+            pos, mask = _NANS3, mask | TARGET_IGNORE_POSITION
+        if vel is None:
+            vel, mask = _NANS3, mask | TARGET_IGNORE_VELOCITY
+        return pack_scalar(
+            self.mav,
+            self._d.MAVLink_position_target_local_ned_message,
+            round(self._now * 1000),
+            *pos,
+            *vel,
+            0.0,
+            0.0,
+            0.0,
+            self._yaw_sp if self.armed else math.nan,
+            0.0,
+            mask,
+            FRAME_LOCAL_NED,
+            keep=self._out_msgs,
         )
 
     def _msg_scaled_pressure(self) -> Any:
