@@ -38,6 +38,7 @@ BENCHMARKS = (
     "trace",
     "rover",
     "px4",
+    "px4_low",
     "sitl",
     "docker",
     "throughput",
@@ -90,6 +91,30 @@ def row(
         "status": "-" if met is None else ("met" if met else "not met"),
         "limit": limit,
     }
+
+
+def px4_low_rows(data: dict[str, Any]) -> list[Row]:
+    """The 4-waypoint mission at low fidelity, messages passed in-process or parsed."""
+    target = data["target"]
+    rows = []
+    for way, note in (
+        ("messages", "the in-process ground station takes the downlink's messages"),
+        ("frames", "the ground station parses every frame, as a peer in another process"),
+    ):
+        r = data["ways"][way]
+        rows.append(
+            row(
+                "speed (4-waypoint mission)",
+                f"PX4 low, {way}",
+                f"{r['speed_factor']:.0f}x real time",
+                ratio=r["speed_factor"],
+                unit="x",
+                target=f">= {target:g}x" if way == "messages" else "",
+                met=r["speed_factor"] >= target if way == "messages" else None,
+                limit=note,
+            )
+        )
+    return rows
 
 
 def speed_rows(data: dict[str, Any], scenario: str) -> list[Row]:
@@ -384,6 +409,7 @@ def scaling_rows(data: dict[str, Any]) -> list[Row]:
 BUILDERS: dict[str, Callable[[dict[str, dict[str, Any]]], list[Row]]] = {
     "rover": lambda r: speed_rows(r["rover"], "rover"),
     "px4": lambda r: speed_rows(r["px4"], "PX4"),
+    "px4_low": lambda r: px4_low_rows(r["px4_low"]),
     "sitl": lambda r: sitl_rows(r["sitl"]),
     "physics": lambda r: physics_rows(r.get("rover"), r.get("px4")),
     "transport": lambda r: transport_rows(r["transport"]),

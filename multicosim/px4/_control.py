@@ -13,10 +13,12 @@ import math
 import numpy as np
 
 from ._airframe import NONE_IRIS, Airframe
+from ._estimator import rotation_matrix
 
 __all__ = ["MultirotorController", "Vehicle", "position_control"]
 
 GRAVITY = 9.80665
+HOVER_THRUST = 0.5  # PX4's MPC_THR_HOVER: the normalized thrust that hovers
 
 
 class Vehicle:
@@ -59,7 +61,7 @@ def position_control(
     down: float,
     vz_override: float | None = None,
     kp_xy: float = 0.95,
-    kp_z: float = 1.0,
+    kp_z: float = 1.5,
 ) -> tuple[float, float, float]:
     """Velocity setpoint (NED) towards position ``sp``, limited like PX4's MPC_* speeds.
 
@@ -129,9 +131,41 @@ class MultirotorController:
         n = math.sqrt(yx * yx + yy * yy + yz * yz)
         yx, yy, yz = yx / n, yy / n, yz / n
         xx, xy, xz = yy * zz - yz * zy, yz * zx - yx * zz, yx * zy - yy * zx
-        # Attitude error e_R = vee(Rd^T R - R^T Rd) / 2 (geometric control, body frame).
-        # Rd columns: x_d, y_d, z_d; R is row-major body-to-NED.
         rd = (xx, yx, zx, xy, yy, zy, xz, yz, zz)
+        return self._attitude_rate(dt, rd, thrust, r, rates)
+
+    def attitude(
+        self,
+        dt: float,
+        q_sp: tuple[float, float, float, float],
+        thrust: float,
+        r: tuple[float, ...],
+        rates: tuple[float, float, float],
+    ) -> list[float]:
+        """Motor commands for attitude ``q_sp`` (w, x, y, z) and normalized ``thrust``.
+
+        Thrust 0..1 as PX4's attitude setpoints give it, scaled so that MPC_THR_HOVER (0.5)
+        holds the vehicle's weight.
+        """
+        w, x, y, z = q_sp
+        n = math.sqrt(w * w + x * x + y * y + z * z) or 1.0
+        w, x, y, z = w / n, x / n, y / n, z / n
+        rd = rotation_matrix(w, x, y, z)
+        force = _clamp(thrust, 0.0, 1.0) / HOVER_THRUST * self.v.mass * GRAVITY
+        self.thrust = force
+        return self._attitude_rate(dt, rd, force, r, rates)
+
+    def _attitude_rate(
+        self,
+        dt: float,
+        rd: tuple[float, ...],
+        thrust: float,
+        r: tuple[float, ...],
+        rates: tuple[float, float, float],
+    ) -> list[float]:
+        """Attitude and rate loops: motor commands for attitude ``rd`` (row-major, to NED)."""
+        v = self.v
+        # Attitude error e_R = vee(Rd^T R - R^T Rd) / 2 (geometric control, body frame).
         m = [0.0] * 9  # M = Rd^T R
         for i in range(3):
             for j in range(3):

@@ -16,7 +16,7 @@ import math
 
 from ..geo import LocalProjection
 
-__all__ = ["Estimator"]
+__all__ = ["Estimator", "rotation_matrix"]
 
 GRAVITY = 9.80665
 
@@ -26,9 +26,27 @@ K_GPS_VEL = 0.35
 K_GPS_VEL_FROM_POS = 0.1
 K_BARO_POS = 0.04  # 50 Hz
 K_BARO_VEL = 0.01
+K_BARO_VEL_ALONE = 0.05  # without GPS, the barometer alone damps the vertical speed
+MAG_GATE = 0.5  # rad: a heading innovation beyond this is rejected (a faulty magnetometer)
+STUCK_AFTER = 0.25  # s of bit-identical readings after which a sensor is taken as frozen
 K_TILT = 2.0  # rad/s per rad of tilt error
 K_YAW = 0.6
 GPS_TIMEOUT = 0.5
+
+
+def rotation_matrix(w: float, x: float, y: float, z: float) -> tuple[float, ...]:
+    """Row-major rotation matrix of the unit quaternion (w, x, y, z)."""
+    return (
+        1 - 2 * (y * y + z * z),
+        2 * (x * y - w * z),
+        2 * (x * z + w * y),
+        2 * (x * y + w * z),
+        1 - 2 * (x * x + z * z),
+        2 * (y * z - w * x),
+        2 * (x * z - w * y),
+        2 * (y * z + w * x),
+        1 - 2 * (x * x + y * y),
+    )
 
 
 def _wrap(a: float) -> float:
@@ -63,24 +81,17 @@ class Estimator:
         self._sf_time = 0.0
         self._last_gps_vel: tuple[float, float, float] | None = None
         self._baro_alt = 0.0
+        self._gps_d: float | None = None  # height (down) the last GPS fix gave
+        self._baro_bad_since: float | None = None
+        self.baro_rejected = False  # barometer inconsistent with GPS: height from GPS
+        self._last_reading: dict[str, tuple[object, float]] = {}
         self._acc_b = (0.0, 0.0, -GRAVITY)
 
     # -- derived state ----------------------------------------------------------------------
 
     def rotation(self) -> tuple[float, ...]:
         """Row-major body-to-NED rotation matrix."""
-        w, x, y, z = self.q
-        return (
-            1 - 2 * (y * y + z * z),
-            2 * (x * y - w * z),
-            2 * (x * z + w * y),
-            2 * (x * y + w * z),
-            1 - 2 * (x * x + z * z),
-            2 * (y * z - w * x),
-            2 * (x * z - w * y),
-            2 * (y * z + w * x),
-            1 - 2 * (x * x + y * y),
-        )
+        return rotation_matrix(*self.q)
 
     def euler(self) -> tuple[float, float, float]:
         """Roll, pitch, yaw (rad)."""
@@ -201,8 +212,24 @@ class Estimator:
             0.0,  # heading is the magnetometer's business
         )
 
+    def _stuck(self, name: str, now: float, reading: object, moving: bool) -> bool:
+        """Whether a sensor repeats exactly the same reading while the vehicle moves.
+
+        A reading that cannot change while the vehicle turns (magnetometer) or climbs
+        (barometer) is frozen; it is ignored, as PX4's sensor checks drop a stale sensor.
+        An ideal sensor on a still vehicle repeats itself legitimately.
+        """
+        last = self._last_reading.get(name)
+        if last is None or last[0] != reading or not moving:
+            self._last_reading[name] = (reading, now)
+            return False
+        return now - last[1] > STUCK_AFTER
+
     def mag(self, now: float, m: tuple[float, float, float]) -> None:
         """Correct heading with a magnetometer sample (gauss, FRD)."""
+        turning = max(abs(self.rates[0]), abs(self.rates[1]), abs(self.rates[2])) > 0.05
+        if self._stuck("mag", now, m, turning):
+            return
         self.last_mag = now
         r = self.rotation()
         mn = r[0] * m[0] + r[1] * m[1] + r[2] * m[2]
@@ -215,18 +242,35 @@ class Estimator:
             self._set_euler(roll, pitch, _wrap(yaw - err))
             self.attitude_ok = True
             return
-        self._yaw_corr = -K_YAW * err
+        # Innovation gate: a heading this far off is the magnetometer's fault, not ours.
+        self._yaw_corr = -K_YAW * err if abs(err) < MAG_GATE else 0.0
 
     def baro(self, now: float, pressure_alt: float) -> None:
         """Correct height with a barometric altitude (m)."""
+        if self._stuck("baro", now, pressure_alt, abs(self.vel[2]) > 0.3):
+            return
         self.last_baro = now
         self._baro_alt = pressure_alt
         if self.baro_offset is None or self.origin is None:
             return
         d_meas = -(pressure_alt - self.baro_offset - self.origin_alt)
+        # A stuck or wrong barometer disagrees with GPS for a while: stop fusing it then,
+        # as PX4's EKF2 does with its height sources.
+        gps_d = self._gps_d
+        if gps_d is not None and now - self.last_gps < GPS_TIMEOUT and abs(d_meas - gps_d) > 8.0:
+            if self._baro_bad_since is None:
+                self._baro_bad_since = now
+            elif now - self._baro_bad_since > 2.0:
+                self.baro_rejected = True
+        else:
+            self._baro_bad_since = None
+            self.baro_rejected = False
+        if self.baro_rejected:
+            return
         err = d_meas - self.pos[2]
         self.pos[2] += K_BARO_POS * err
-        self.vel[2] += K_BARO_VEL * err
+        alone = now - self.last_gps > GPS_TIMEOUT
+        self.vel[2] += (K_BARO_VEL_ALONE if alone else K_BARO_VEL) * err
 
     def gps(
         self,
@@ -273,7 +317,8 @@ class Estimator:
         vel[0] += K_GPS_VEL * (vn - vel[0]) + K_GPS_VEL_FROM_POS * en
         vel[1] += K_GPS_VEL * (ve - vel[1]) + K_GPS_VEL_FROM_POS * ee
         vel[2] += K_GPS_VEL * 0.5 * (vd - vel[2])
-        if self.last_baro < 0 or now - self.last_baro > 1.0:
+        self._gps_d = self.origin_alt - alt
+        if self.last_baro < 0 or now - self.last_baro > 1.0 or self.baro_rejected:
             pos[2] += K_GPS_POS * (self.origin_alt - alt - pos[2])
         last = self._last_gps_vel
         if fresh and last is not None and self._sf_time > 0.02:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import enum
 import struct
+from collections import deque
 from types import ModuleType
 from typing import Any
 
@@ -67,17 +68,26 @@ class SubMode(enum.IntEnum):
     MISSION = 4
     RTL = 5
     LAND = 6
+    FOLLOW_TARGET = 8
+    PRECLAND = 9
 
 
 class Mode(enum.Enum):
     """The flight modes our autopilot implements, as (main, sub) PX4 custom modes."""
 
+    MANUAL = (MainMode.MANUAL, SubMode.NONE)
+    ALTCTL = (MainMode.ALTCTL, SubMode.NONE)
     POSCTL = (MainMode.POSCTL, SubMode.NONE)
+    ACRO = (MainMode.ACRO, SubMode.NONE)
+    OFFBOARD = (MainMode.OFFBOARD, SubMode.NONE)
+    STABILIZED = (MainMode.STABILIZED, SubMode.NONE)
     TAKEOFF = (MainMode.AUTO, SubMode.TAKEOFF)
     LOITER = (MainMode.AUTO, SubMode.LOITER)
     MISSION = (MainMode.AUTO, SubMode.MISSION)
     RTL = (MainMode.AUTO, SubMode.RTL)
     LAND = (MainMode.AUTO, SubMode.LAND)
+    FOLLOW_TARGET = (MainMode.AUTO, SubMode.FOLLOW_TARGET)
+    PRECLAND = (MainMode.AUTO, SubMode.PRECLAND)
 
     @property
     def custom_mode(self) -> int:
@@ -149,11 +159,12 @@ def _scalar_class(msgid: int) -> Any:
     return cls
 
 
-def pack_scalar(mav: Any, cls: Any, *values: Any) -> bytes:
+def pack_scalar(mav: Any, cls: Any, *values: Any, keep: list[Any] | None = None) -> bytes:
     """A MAVLink 2 frame of ``cls`` (scalar fields, ``values`` in wire order) from ``mav``.
 
     Byte for byte what pymavlink's ``pack`` produces (trailing zeros trimmed, CRC with
-    crc_extra), without its per-message overhead; used for the high-rate telemetry.
+    crc_extra), without its per-message overhead; used for the high-rate telemetry. With
+    ``keep``, the message as a receiver decodes it is appended there (see :func:`remember`).
     """
     payload = cls.unpacker.pack(*values)
     n = len(payload)
@@ -162,6 +173,11 @@ def pack_scalar(mav: Any, cls: Any, *values: Any) -> bytes:
     mid = cls.id
     seq = mav.seq
     mav.seq = (seq + 1) & 0xFF
+    if keep is not None:
+        t = cls.unpacker.unpack(payload)
+        m = cls(*[t[i] for i in cls.orders])
+        m._header = dialect().MAVLink_header(mid, 0, 0, n, seq, mav.srcSystem, mav.srcComponent)
+        keep.append(m)
     buf = (
         _HEADER.pack(0xFD, n, 0, 0, seq, mav.srcSystem, mav.srcComponent, mid & 0xFFFF, mid >> 16)
         + payload[:n]
@@ -188,12 +204,29 @@ def _decode_scalar(cls: Any, frame: bytes, n: int) -> Any:
     return m
 
 
+_packed: deque[tuple[bytes, list[tuple[bytes, Any]]]] = deque(maxlen=8)
+
+
+def remember(data: bytes, frames: list[tuple[bytes, Any]]) -> None:
+    """``data`` (the concatenated ``frames``) was just packed in this process.
+
+    Each frame comes with the message a receiver would decode from it, or None. When the
+    very same bytes object reaches :func:`decode_frames` (an in-process peer on the same
+    topic), those messages are returned without parsing; a copy that crossed a process or
+    a socket is a different object and is parsed as usual.
+    """
+    _packed.append((data, frames))
+
+
 def decode_frames(mav: Any, data: bytes) -> list[Any]:
     """Decode concatenated, complete MAVLink frames (as our topics carry them).
 
     Splitting on the length byte and decoding each frame directly is several times faster
     than pymavlink's byte-wise stream parser; anything unexpected falls back to it.
     """
+    for packed, frames in reversed(_packed):
+        if packed is data:
+            return [m if m is not None else decode_frames(mav, frame)[0] for frame, m in frames]
     out: list[Any] = []
     i, n = 0, len(data)
     decode = mav.decode

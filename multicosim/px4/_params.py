@@ -1,58 +1,110 @@
-"""The parameters our autopilot exposes over the MAVLink parameter protocol (PX4 names)."""
+"""The parameters our autopilot exposes over the MAVLink parameter protocol: PX4's own.
+
+The table (every name PX4 v1.15.4 SITL reports, its MAVLink type, the value it has when PX4
+flies our world, and the range PX4's metadata gives) is the one recorded from real PX4 by
+``scripts/record_px4.py`` (:mod:`.conformance`). The autopilot acts on the ones its
+commander, navigator and controller read; the others are stored and echoed as PX4 does.
+"""
 
 from __future__ import annotations
 
-__all__ = ["DEFAULTS", "RANGES", "Params"]
+import math
+import struct
+from functools import cache
+from typing import NamedTuple
 
-# name: (default, min, max). Names, units and meanings follow PX4's.
-RANGES: dict[str, tuple[float, float, float]] = {
-    "MPC_XY_CRUISE": (5.0, 0.5, 20.0),  # m/s, horizontal speed in missions
-    "MPC_Z_VEL_MAX_UP": (3.0, 0.5, 8.0),  # m/s
-    "MPC_Z_VEL_MAX_DN": (1.5, 0.5, 4.0),  # m/s
-    "MPC_TKO_SPEED": (1.5, 0.5, 5.0),  # m/s, takeoff climb rate
-    "MPC_LAND_SPEED": (0.7, 0.2, 3.0),  # m/s, final descent rate
-    "MPC_LAND_ALT2": (5.0, 0.0, 100.0),  # m, below this descend at MPC_LAND_SPEED
-    "NAV_ACC_RAD": (2.0, 0.05, 200.0),  # m, horizontal acceptance radius
-    "NAV_MC_ALT_RAD": (0.8, 0.05, 200.0),  # m, vertical acceptance radius
-    "MIS_TAKEOFF_ALT": (2.5, 0.0, 80.0),  # m above home
-    "RTL_RETURN_ALT": (30.0, 0.0, 150.0),  # m above home
-    "COM_DISARM_LAND": (2.0, -1.0, 20.0),  # s, disarm after landing (< 0: never)
-    "COM_DISARM_PRFLT": (10.0, -1.0, 20.0),  # s, disarm if no takeoff after arming
-    "COM_POS_FS_DELAY": (1.0, 0.0, 10.0),  # s without GPS before the failsafe
-    "GF_MAX_HOR_DIST": (1000.0, 0.0, 10000.0),  # m, 0: no limit
-    "GF_MAX_VER_DIST": (120.0, 0.0, 10000.0),  # m, 0: no limit
-    "SYS_AUTOSTART": (4001.0, 0.0, 9999999.0),  # the airframe (4001: generic quadrotor x)
-}
-DEFAULTS = {name: spec[0] for name, spec in RANGES.items()}
+__all__ = [
+    "PARAM_INT32",
+    "PARAM_REAL32",
+    "Param",
+    "Params",
+    "decode_value",
+    "encode_value",
+    "table",
+]
+
+PARAM_UINT8, PARAM_INT8, PARAM_UINT16, PARAM_INT16 = 1, 2, 3, 4
+PARAM_UINT32, PARAM_INT32, PARAM_REAL32 = 5, 6, 9
+_INT_FORMATS = {1: "<B", 2: "<b", 3: "<H", 4: "<h", 5: "<I", 6: "<i"}
+
+
+class Param(NamedTuple):
+    """One parameter: MAVLink type, value in our world, and PX4's range (None: unbounded)."""
+
+    type: int
+    value: float
+    min: float | None
+    max: float | None
+
+
+@cache
+def table() -> dict[str, Param]:
+    """PX4's parameters by name (in PX4's index order: sorted by name)."""
+    from .conformance import load
+
+    out = {}
+    for name, p in load()["params"].items():
+        out[name] = Param(int(p["type"]), float(p["value"]), p.get("min"), p.get("max"))
+    return dict(sorted(out.items()))
+
+
+def encode_value(value: float, ptype: int) -> float:
+    """``value`` as PARAM_VALUE carries it: integers bytewise in the float, as PX4 sends."""
+    fmt = _INT_FORMATS.get(ptype)
+    if fmt is None:
+        return float(value)
+    raw = struct.pack(fmt, int(value)).ljust(4, b"\0")
+    return float(struct.unpack("<f", raw)[0])
+
+
+def decode_value(wire: float, ptype: int) -> float:
+    """The value a PARAM_SET of type ``ptype`` means (bytewise integers, as PX4 reads them)."""
+    fmt = _INT_FORMATS.get(ptype)
+    if fmt is None:
+        return float(wire)
+    raw = struct.pack("<f", wire)
+    return float(struct.unpack(fmt, raw[: struct.calcsize(fmt)])[0])
 
 
 class Params(dict[str, float]):
-    """Parameter values by name, defaulted, with range checks on set."""
+    """Parameter values by name, PX4's in our world unless set; range-checked configuration."""
 
     def __init__(self, values: dict[str, float] | None = None) -> None:
-        super().__init__(DEFAULTS)
+        spec = table()
+        super().__init__((name, p.value) for name, p in spec.items())
         for name, value in (values or {}).items():
             if not self.set(name, value):
                 from .._errors import ConfigurationError
 
-                lo, hi = RANGES[name][1:] if name in RANGES else (0.0, 0.0)
-                raise ConfigurationError(
-                    f"params[{name!r}]",
-                    value,
-                    f"a value in [{lo:g}, {hi:g}]"
-                    if name in RANGES
-                    else f"one of {', '.join(RANGES)}",
-                )
+                p = spec.get(name)
+                if p is None:
+                    raise ConfigurationError(f"params[{name!r}]", value, "a PX4 parameter name")
+                lo = "-inf" if p.min is None else f"{p.min:g}"
+                hi = "inf" if p.max is None else f"{p.max:g}"
+                raise ConfigurationError(f"params[{name!r}]", value, f"a value in [{lo}, {hi}]")
 
     def set(self, name: str, value: float) -> bool:
-        """Set ``name`` if it exists and ``value`` is in range; return whether it was set."""
-        spec = RANGES.get(name)
-        if spec is None or not (spec[1] <= value <= spec[2]):
+        """Set ``name`` if it exists and ``value`` is within PX4's range; whether it was set."""
+        p = table().get(name)
+        if p is None or not math.isfinite(value):
+            return False
+        if (p.min is not None and value < p.min) or (p.max is not None and value > p.max):
             return False
         self[name] = float(value)
         return True
 
+    def assign(self, name: str, value: float) -> bool:
+        """Set ``name`` to any finite ``value`` (as a PARAM_SET does); whether it was set."""
+        if name not in self or not math.isfinite(value):
+            return False
+        self[name] = float(value)
+        return True
+
+    def type_of(self, name: str) -> int:
+        """The MAVLink type of ``name``."""
+        return table()[name].type
+
     @property
     def names(self) -> list[str]:
         """Parameter names in index order."""
-        return list(RANGES)
+        return list(table())

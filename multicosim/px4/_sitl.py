@@ -18,6 +18,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import msgspec
+
 from .._local import LocalEnvironment, ParticipantComponent, ProcessSimulator
 from .._runtime import StepContext, Subscription
 from ._autopilot import Autopilot
@@ -123,7 +125,8 @@ def run_sitl(
     world = world or MuJoCo()
     links = links if links is not None else [Link(GCS_PORT, 18570), Link(API_PORT, 14580)]
     px4 = PX4Component(world, fidelity, process=False)
-    spec = px4.spec
+    # PX4's API-link streams: what MAVSDK and ground stations get from real PX4 SITL.
+    spec = msgspec.structs.replace(px4.spec, streams="onboard")
     sim = ProcessSimulator(seed=seed, realtime=speed)
     sim.add(WorldComponent(world, fidelity, process=False))
     sim.add(ParticipantComponent(lambda: Autopilot(spec), "px4"))

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 import signal
 import socket
 import subprocess
@@ -35,8 +36,13 @@ def sitl() -> object:
 
 
 @contextlib.contextmanager
-def sitl_process(*args: str, timeout: float = 30.0) -> Iterator[subprocess.Popen[bytes]]:
-    """``python -m multicosim.px4 sitl ARGS`` in its own session; killed (group) on exit."""
+def sitl_process(
+    *args: str, timeout: float = 30.0, ready: str = "ready"
+) -> Iterator[subprocess.Popen[bytes]]:
+    """``python -m multicosim.px4 sitl ARGS`` in its own session; killed (group) on exit.
+
+    It is ready when its output matches ``ready`` (the match is ``proc.ready``).
+    """
     with tempfile.TemporaryFile() as out:
         proc = subprocess.Popen(
             [sys.executable, "-m", "multicosim.px4", "sitl", *args],
@@ -49,7 +55,9 @@ def sitl_process(*args: str, timeout: float = 30.0) -> Iterator[subprocess.Popen
             while True:
                 out.seek(0)
                 seen = out.read().decode(errors="replace")
-                if "ready" in seen:
+                match = re.search(ready, seen)
+                if match:
+                    proc.ready = match  # type: ignore[attr-defined]
                     break
                 if proc.poll() is not None or time.monotonic() > deadline:
                     pytest.fail(f"SITL did not start (exit {proc.poll()}):\n{seen}")

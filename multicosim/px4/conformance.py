@@ -1,0 +1,488 @@
+"""What a PX4 autopilot answers over MAVLink, recorded and compared.
+
+``record(port)`` asks an autopilot on a MAVLink UDP link (sending to ``port`` on loopback)
+the same questions in the same order and records its answers: its heartbeat, the messages
+it streams and their rates, its parameters (names, types, values; with ``metadata`` PX4's
+own parameter metadata, read over MAVLink FTP: defaults and ranges), its answer to each
+command in each state, its flight modes, and the mission protocol (mission items in the
+mission frame, DO_JUMP, geofence and rally lists, the legacy MISSION_REQUEST).
+
+``scripts/record_px4.py`` records real PX4 SITL flying our world into
+``multicosim/px4/data/px4-<version>.json``; the built-in autopilot's parameter table and
+stream rates come from that file, and ``tests/px4/test_conformance.py`` records the built-in
+autopilot the same way and compares with :func:`differences`.
+"""
+
+from __future__ import annotations
+
+import json
+import lzma
+import math
+import socket
+import time
+from collections import Counter
+from importlib import resources
+from typing import Any
+
+__all__ = ["PX4_VERSION", "differences", "load", "record"]
+
+PX4_VERSION = "1.15.4"
+WINDOW = 20.0  # simulated seconds of streams counted for the rates
+
+# Message ids the probes ask for (common dialect).
+MSG_HEARTBEAT, MSG_GPS_GLOBAL_ORIGIN, MSG_AUTOPILOT_VERSION = 0, 49, 148
+MSG_HIL_STATE_QUATERNION, MSG_HOME_POSITION, MSG_PROTOCOL_VERSION = 115, 242, 300
+MSG_FLIGHT_INFORMATION, MSG_UNKNOWN = 264, 9999
+
+CMD = {  # name: id
+    "NAV_WAYPOINT": 16,
+    "NAV_LOITER_UNLIM": 17,
+    "NAV_RETURN_TO_LAUNCH": 20,
+    "NAV_LAND": 21,
+    "NAV_TAKEOFF": 22,
+    "DO_ORBIT": 34,
+    "DO_SET_MODE": 176,
+    "DO_JUMP": 177,
+    "DO_CHANGE_SPEED": 178,
+    "DO_SET_HOME": 179,
+    "DO_REPOSITION": 192,
+    "DO_PAUSE_CONTINUE": 193,
+    "DO_MOTOR_TEST": 209,
+    "DO_SET_MISSION_CURRENT": 224,
+    "MISSION_START": 300,
+    "COMPONENT_ARM_DISARM": 400,
+    "INJECT_FAILURE": 420,
+    "GET_HOME_POSITION": 410,
+    "GET_MESSAGE_INTERVAL": 510,
+    "SET_MESSAGE_INTERVAL": 511,
+    "REQUEST_MESSAGE": 512,
+    "REQUEST_AUTOPILOT_CAPABILITIES": 520,
+    "USER_1": 31010,
+}
+# PX4 flight modes as DO_SET_MODE asks for them: (main, sub).
+MODES = {
+    "MANUAL": (1, 0),
+    "ALTCTL": (2, 0),
+    "POSCTL": (3, 0),
+    "AUTO.TAKEOFF": (4, 2),
+    "AUTO.LOITER": (4, 3),
+    "AUTO.MISSION": (4, 4),
+    "AUTO.RTL": (4, 5),
+    "AUTO.LAND": (4, 6),
+    "AUTO.FOLLOW_TARGET": (4, 8),
+    "AUTO.PRECLAND": (4, 9),
+    "ACRO": (5, 0),
+    "OFFBOARD": (6, 0),
+    "STABILIZED": (7, 0),
+}
+
+
+class _Link:
+    """A pymavlink UDP link with the autopilot's simulated clock (its time_boot_ms)."""
+
+    def __init__(self, port: int, timeout: float, peer: int | None = None) -> None:
+        from pymavlink import mavutil
+
+        from ._mav import dialect
+
+        # pymavlink shares the port (SO_REUSEADDR): another listener there would take some
+        # of the autopilot's datagrams. Refuse a port that is taken.
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
+            try:
+                probe.bind(("127.0.0.1", port))
+            except OSError as exc:
+                raise RuntimeError(f"UDP port {port} is in use by another program") from exc
+        self.conn: Any = mavutil.mavlink_connection(
+            f"udpin:127.0.0.1:{port}", source_system=245, source_component=190
+        )
+        # MAVLink 2 with the common dialect (mavutil's default is MAVLink 1, which has no
+        # mission_type: fence and rally lists would arrive as missions).
+        self.conn.mav = dialect().MAVLink(self.conn, srcSystem=245, srcComponent=190)
+        self.conn.mav.robust_parsing = True
+        self.mav: Any = self.conn.mav
+        self.peer = peer
+        self._beat = 0.0
+        self.sim_ms = 0
+        self.timeout = timeout
+        self.counts: Counter[str] = Counter()
+        self.last: dict[str, Any] = {}
+        self.texts: list[str] = []
+
+    def close(self) -> None:
+        self.conn.close()
+
+    def recv(self, wall: float = 0.2) -> Any:
+        if self.peer is not None and time.monotonic() - self._beat > 0.5:
+            # A ground station's heartbeat to the autopilot's own port: PX4 then answers
+            # this socket whatever its link was set to send to.
+            self._beat = time.monotonic()
+            self.conn.port.sendto(
+                self.mav.heartbeat_encode(6, 8, 0, 0, 4).pack(self.mav), ("127.0.0.1", self.peer)
+            )
+        m = self.conn.recv_match(blocking=True, timeout=wall)
+        if m is None:
+            return None
+        name = m.get_type()
+        if name == "BAD_DATA" or m.get_srcSystem() != 1:
+            return None
+        t = getattr(m, "time_boot_ms", None)
+        if isinstance(t, int) and t > self.sim_ms:
+            self.sim_ms = t
+        self.counts[name] += 1
+        self.last[name] = m
+        if name == "STATUSTEXT":
+            self.texts.append(m.text)
+        return m
+
+    def wait(self, ok: Any, sim_s: float) -> Any:
+        """The first message for which ``ok(m)``, within ``sim_s`` simulated seconds."""
+        start = self.sim_ms or None  # the clock starts with the first message
+        wall_deadline = time.monotonic() + self.timeout
+        while time.monotonic() < wall_deadline:
+            m = self.recv()
+            if m is not None and ok(m):
+                return m
+            if start is None:
+                start = self.sim_ms or None
+            elif self.sim_ms - start >= sim_s * 1000:
+                break
+        return None
+
+    def sleep(self, sim_s: float) -> None:
+        self.wait(lambda m: False, sim_s)
+
+    def command(self, name: str, *params: float, sim_s: float = 1.0) -> int | None:
+        cmd = CMD[name]
+        p = [*params, *[0.0] * (7 - len(params))]
+        for _ in range(3):
+            self.mav.command_long_send(1, 1, cmd, 0, *p)
+            ack = self.wait(lambda m: m.get_type() == "COMMAND_ACK" and m.command == cmd, sim_s)
+            if ack is not None:
+                return int(ack.result)
+        return None
+
+    def command_int(self, name: str, frame: int, *params: float, sim_s: float = 1.0) -> int | None:
+        cmd = CMD[name]
+        p = [*params, *[0.0] * (7 - len(params))]
+        self.mav.command_int_send(
+            1, 1, frame, cmd, 0, 0, p[0], p[1], p[2], p[3], int(p[4]), int(p[5]), p[6]
+        )
+        ack = self.wait(lambda m: m.get_type() == "COMMAND_ACK" and m.command == cmd, sim_s)
+        return None if ack is None else int(ack.result)
+
+    def custom_mode(self) -> int:
+        hb = self.wait(lambda m: m.get_type() == "HEARTBEAT", 2.0)
+        return -1 if hb is None else int(hb.custom_mode)
+
+
+def _param_value(m: Any) -> float | int:
+    """A PARAM_VALUE's value as PX4 means it (integers are sent bytewise in the float)."""
+    import struct
+
+    if m.param_type in (1, 2, 3, 4, 5, 6):
+        raw = struct.pack("<f", m.param_value)
+        fmt = {1: "<B", 2: "<b", 3: "<H", 4: "<h", 5: "<I", 6: "<i"}[m.param_type]
+        size = struct.calcsize(fmt)
+        return int(struct.unpack(fmt, raw[:size])[0])
+    return float(m.param_value)
+
+
+def _name(raw: Any) -> str:
+    text = raw.decode(errors="replace") if isinstance(raw, bytes) else str(raw)
+    return text.split("\0", 1)[0]
+
+
+def _streams(link: _Link) -> dict[str, float]:
+    link.counts.clear()
+    link.wait(lambda m: False, 1.0)  # settle on a clock
+    link.counts.clear()
+    start = link.sim_ms
+    link.sleep(WINDOW)
+    span = (link.sim_ms - start) / 1000.0
+    rates = {}
+    for name, n in sorted(link.counts.items()):
+        if name in ("STATUSTEXT", "COMMAND_ACK", "PARAM_VALUE") or name.startswith("UNKNOWN"):
+            continue
+        rates[name] = round(n / span, 1) if span > 0 else 0.0
+    return rates
+
+
+def _params(link: _Link) -> dict[str, Any]:
+    values: dict[int, tuple[str, int, Any]] = {}
+    count = None
+    link.mav.param_request_list_send(1, 1)
+    for _ in range(4):
+        # Until all have come, or none for 2 s (simulated).
+        while count is None or len(values) < count:
+            m = link.wait(lambda m: m.get_type() == "PARAM_VALUE", 2.0)
+            if m is None:
+                break
+            count = m.param_count
+            values[m.param_index] = (_name(m.param_id), int(m.param_type), _param_value(m))
+        if count is not None and len(values) >= count:
+            break
+        for i in range(count or 0):
+            if i not in values:
+                link.mav.param_request_read_send(1, 1, b"", i)
+    params = {name: {"type": t, "value": v} for name, t, v in values.values()}
+    return {"count": count, "params": dict(sorted(params.items()))}
+
+
+def _param_answers(link: _Link) -> dict[str, Any]:
+    """How reads and sets of known and unknown names are answered."""
+
+    def answer(send: Any) -> Any:
+        link.texts.clear()
+        send()
+        m = link.wait(lambda m: m.get_type() in ("PARAM_VALUE", "PARAM_ERROR"), 1.0)
+        if m is None:
+            return {"reply": None}
+        out: dict[str, Any] = {"reply": m.get_type(), "name": _name(m.param_id)}
+        if m.get_type() == "PARAM_VALUE":
+            out["value"] = _param_value(m)
+        return out
+
+    import struct
+
+    as_int = struct.unpack("<f", struct.pack("<i", 7))[0]
+    mav = link.mav
+    return {
+        "read_unknown": answer(lambda: mav.param_request_read_send(1, 1, b"NO_SUCH_PARAM", -1)),
+        "set_unknown": answer(lambda: mav.param_set_send(1, 1, b"NO_SUCH_PARAM", 1.0, 9)),
+        "read_by_name": answer(lambda: mav.param_request_read_send(1, 1, b"NAV_ACC_RAD", -1)),
+        "set_float": answer(lambda: mav.param_set_send(1, 1, b"MPC_XY_CRUISE", 6.0, 9)),
+        "set_out_of_range": answer(lambda: mav.param_set_send(1, 1, b"MPC_XY_CRUISE", 500.0, 9)),
+        "set_int": answer(lambda: mav.param_set_send(1, 1, b"COM_RCL_EXCEPT", as_int, 6)),
+        "restore_int": answer(lambda: mav.param_set_send(1, 1, b"COM_RCL_EXCEPT", 0.0, 6)),
+        "restore_float": answer(lambda: mav.param_set_send(1, 1, b"MPC_XY_CRUISE", 5.0, 9)),
+    }
+
+
+def _commands(link: _Link) -> dict[str, Any]:
+    """Answers to commands on the ground, disarmed, in position hold."""
+    nan = math.nan
+    out: dict[str, Any] = {}
+    for name, msgid in (
+        ("AUTOPILOT_VERSION", MSG_AUTOPILOT_VERSION),
+        ("PROTOCOL_VERSION", MSG_PROTOCOL_VERSION),
+        ("HOME_POSITION", MSG_HOME_POSITION),
+        ("GPS_GLOBAL_ORIGIN", MSG_GPS_GLOBAL_ORIGIN),
+        ("FLIGHT_INFORMATION", MSG_FLIGHT_INFORMATION),
+        ("UNKNOWN", MSG_UNKNOWN),
+    ):
+        out[f"REQUEST_MESSAGE {name}"] = link.command("REQUEST_MESSAGE", msgid)
+    out["GET_MESSAGE_INTERVAL HEARTBEAT"] = link.command("GET_MESSAGE_INTERVAL", MSG_HEARTBEAT)
+    out["SET_MESSAGE_INTERVAL HIL_STATE_QUATERNION"] = link.command(
+        "SET_MESSAGE_INTERVAL", MSG_HIL_STATE_QUATERNION, 100_000
+    )
+    out["GET_HOME_POSITION"] = link.command("GET_HOME_POSITION")
+    out["REQUEST_AUTOPILOT_CAPABILITIES"] = link.command("REQUEST_AUTOPILOT_CAPABILITIES", 1)
+    out["DO_CHANGE_SPEED"] = link.command("DO_CHANGE_SPEED", 1, 4.0, -1)
+    out["DO_SET_HOME current"] = link.command("DO_SET_HOME", 1)
+    out["DO_SET_MISSION_CURRENT no mission"] = link.command("DO_SET_MISSION_CURRENT", 3)
+    out["DO_PAUSE_CONTINUE disarmed"] = link.command("DO_PAUSE_CONTINUE", 0)
+    out["DO_MOTOR_TEST"] = link.command("DO_MOTOR_TEST", 1, 0, 0, 1, 1)
+    # (A motor failure would stop PX4 SITL's actuator outputs, and with them the lockstep.)
+    out["INJECT_FAILURE baro off"] = link.command("INJECT_FAILURE", 3, 1, 0)
+    out["INJECT_FAILURE baro ok"] = link.command("INJECT_FAILURE", 3, 0, 0)
+    out["NAV_TAKEOFF disarmed"] = link.command("NAV_TAKEOFF", nan, 0, 0, nan, nan, nan, nan)
+    out["MISSION_START no mission"] = link.command("MISSION_START", 0, 0)
+    out["USER_1"] = link.command("USER_1")
+    out["COMPONENT_ARM_DISARM disarm while disarmed"] = link.command("COMPONENT_ARM_DISARM", 0)
+    return out
+
+
+def _modes(link: _Link) -> dict[str, Any]:
+    """DO_SET_MODE to each PX4 mode while disarmed: the result and the mode then reported."""
+    from ._mav import decode_custom_mode
+
+    out: dict[str, Any] = {}
+    for label, (main, sub) in MODES.items():
+        result = link.command("DO_SET_MODE", 1, main, sub)
+        link.sleep(0.5)
+        cm = link.custom_mode()
+        out[label] = {"result": result, "reported": list(decode_custom_mode(cm))}
+        link.command("DO_SET_MODE", 1, 4, 3)  # back to hold
+        link.sleep(0.5)
+    return out
+
+
+def _mission_items(home: tuple[int, int]) -> list[tuple[Any, ...]]:
+    lat, lon = home
+    # seq, frame, command, params 1-4, x, y, z: takeoff, two waypoints, DO_JUMP back, RTL.
+    return [
+        (0, 6, 22, 0.0, 0.0, 0.0, math.nan, lat, lon, 10.0),
+        (1, 6, 16, 0.0, 0.0, 0.0, math.nan, lat + 2000, lon, 10.0),
+        (2, 6, 16, 0.0, 0.0, 0.0, math.nan, lat + 2000, lon + 2000, 10.0),
+        (3, 2, 177, 1.0, 1.0, 0.0, 0.0, 0, 0, 0.0),
+        (4, 2, 20, 0.0, 0.0, 0.0, 0.0, 0, 0, 0.0),
+    ]
+
+
+def _upload(link: _Link, items: list[tuple[Any, ...]], mission_type: int) -> Any:
+    """Upload ``items``; the ack type and the kinds of requests seen."""
+    link.mav.mission_count_send(1, 1, len(items), mission_type)
+    requests: list[str] = []
+    for _ in range(4 * len(items) + 4):
+        m = link.wait(
+            lambda m: m.get_type() in ("MISSION_REQUEST", "MISSION_REQUEST_INT", "MISSION_ACK"),
+            2.0,
+        )
+        if m is None:
+            return {"ack": None, "requests": requests}
+        if m.get_type() == "MISSION_ACK":
+            return {"ack": int(m.type), "requests": sorted(set(requests))}
+        requests.append(m.get_type())
+        s, frame, cmd, p1, p2, p3, p4, x, y, z = items[m.seq]
+        link.mav.mission_item_int_send(
+            1, 1, s, frame, cmd, int(s == 0), 1, p1, p2, p3, p4, x, y, z, mission_type
+        )
+    return {"ack": None, "requests": requests}
+
+
+def _missions(link: _Link) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    home = link.wait(lambda m: m.get_type() == "HOME_POSITION", 5.0)
+    if home is None:
+        link.command("REQUEST_MESSAGE", MSG_HOME_POSITION)
+        home = link.wait(lambda m: m.get_type() == "HOME_POSITION", 5.0)
+    origin = (home.latitude, home.longitude) if home is not None else (473977420, 85455940)
+    items = _mission_items(origin)
+    out["mission"] = _upload(link, items, 0)
+    out["mission without jump"] = _upload(link, [items[0], items[1]], 0)
+    fence = [
+        (i, 5, 5001, 4.0, 0.0, 0.0, 0.0, origin[0] + dx, origin[1] + dy, 0.0)
+        for i, (dx, dy) in enumerate(((9000, 9000), (9000, -9000), (-9000, -9000), (-9000, 9000)))
+    ]
+    out["fence"] = _upload(link, fence, 1)
+    rally = [(0, 6, 5100, 0.0, 0.0, 0.0, 0.0, origin[0] + 3000, origin[1], 10.0)]
+    out["rally"] = _upload(link, rally, 2)
+    # Download with the legacy request: which message answers it.
+    link.mav.mission_request_list_send(1, 1, 0)
+    count = link.wait(lambda m: m.get_type() == "MISSION_COUNT", 2.0)
+    out["download count"] = None if count is None else int(count.count)
+    link.mav.mission_request_send(1, 1, 0, 0)
+    reply = link.wait(
+        lambda m: m.get_type() in ("MISSION_ITEM", "MISSION_ITEM_INT", "MISSION_ACK"), 2.0
+    )
+    out["legacy MISSION_REQUEST answer"] = None if reply is None else reply.get_type()
+    link.mav.mission_ack_send(1, 1, 0, 0)
+    for mtype, label in ((1, "fence"), (2, "rally")):
+        link.mav.mission_request_list_send(1, 1, mtype)
+        c = link.wait(lambda m, t=mtype: m.get_type() == "MISSION_COUNT" and m.mission_type == t, 2)
+        out[f"download {label} count"] = None if c is None else int(c.count)
+        if c is not None and c.count:
+            link.mav.mission_ack_send(1, 1, 0, mtype)
+    for mtype in (1, 2):
+        link.mav.mission_clear_all_send(1, 1, mtype)
+        link.wait(lambda m: m.get_type() == "MISSION_ACK", 1.0)
+    return out
+
+
+def _heartbeat(hb: Any) -> dict[str, Any]:
+    return {
+        "type": hb.type,
+        "autopilot": hb.autopilot,
+        "base_mode": hb.base_mode,
+        "custom_mode": hb.custom_mode,
+        "system_status": hb.system_status,
+    }
+
+
+def _metadata(link: _Link) -> dict[str, Any]:
+    """PX4's parameter metadata (defaults, ranges), read over MAVLink FTP."""
+    from pymavlink import mavftp
+
+    data = mavftp.MAVFTP(link.conn, 1, 1).read("/etc/extras/parameters.json.xz", 1 << 22)
+    if not data:
+        return {}
+    meta = json.loads(lzma.decompress(data))
+    out = {}
+    for p in meta["parameters"]:
+        entry = {"default": p.get("default"), "type": p.get("type")}
+        for key in ("min", "max", "units"):
+            if key in p:
+                entry[key] = p[key]
+        out[p["name"]] = entry
+    return out
+
+
+def record(
+    port: int, *, peer: int | None = None, metadata: bool = False, timeout: float = 300.0
+) -> dict[str, Any]:
+    """Ask the autopilot linked to UDP ``port`` every question; its answers (JSON-able).
+
+    ``peer``: the autopilot's own UDP port, to say hello to first (PX4's API link).
+    """
+    link = _Link(port, timeout, peer)
+    try:
+        hb = link.wait(lambda m: m.get_type() == "HEARTBEAT", 30.0)
+        assert hb is not None, "no HEARTBEAT within 30 s"
+        # Ready: position and home known.
+        link.wait(lambda m: m.get_type() == "HOME_POSITION", 60.0)
+        out: dict[str, Any] = {"heartbeat": _heartbeat(hb)}
+        out["streams"] = _streams(link)
+        out.update(_params(link))
+        out["param answers"] = _param_answers(link)
+        out["commands"] = _commands(link)
+        out["modes"] = _modes(link)
+        out["missions"] = _missions(link)
+        if metadata:
+            meta = _metadata(link)
+            for name, entry in out["params"].items():
+                entry.update({k: v for k, v in meta.get(name, {}).items() if k != "type"})
+        return out
+    finally:
+        link.close()
+
+
+def load(version: str = PX4_VERSION) -> dict[str, Any]:
+    """The recorded answers of real PX4 ``version``."""
+    text = resources.files(__package__).joinpath(f"data/px4-{version}.json").read_text()
+    data: dict[str, Any] = json.loads(text)
+    return data
+
+
+def differences(expected: dict[str, Any], actual: dict[str, Any]) -> list[str]:
+    """Where ``actual`` answers differently from ``expected`` (empty: conformant)."""
+    out: list[str] = []
+    for key in ("type", "autopilot"):
+        want, got = expected["heartbeat"][key], actual["heartbeat"][key]
+        if want != got:
+            out.append(f"heartbeat {key}: {got}, PX4 {want}")
+    from ._mav import dialect
+
+    common = {cls.msgname for cls in dialect().mavlink_map.values()}
+    for name, rate in expected["streams"].items():
+        if name not in common:
+            continue  # outside the common dialect (CURRENT_MODE): not ours to send
+        got = actual["streams"].get(name)
+        if got is None:
+            out.append(f"stream {name} ({rate} Hz) not sent")
+        elif abs(got - rate) > max(0.5, 0.25 * rate):
+            out.append(f"stream {name}: {got} Hz, PX4 {rate} Hz")
+    # (PX4's param_count counts the parameters in use when it answers, which can grow
+    # during a listing: the names are compared, not the count.)
+    for name in sorted(set(actual["params"]) - set(expected["params"])):
+        out.append(f"parameter {name}: PX4 has none")
+    for name, p in expected["params"].items():
+        q = actual["params"].get(name)
+        if q is None:
+            out.append(f"parameter {name} missing")
+        elif q["type"] != p["type"]:
+            out.append(f"parameter {name} type {q['type']} != {p['type']}")
+        elif not _close(q["value"], p["value"]):
+            out.append(f"parameter {name} = {q['value']}, PX4 {p['value']}")
+    for section in ("param answers", "commands", "modes", "missions"):
+        for key, want in expected[section].items():
+            got = actual[section].get(key)
+            if isinstance(want, dict) and "ack" in want:
+                # Which request kinds an upload saw depends on timing; the outcome does not.
+                want, got = want["ack"], (got or {}).get("ack")
+            if got != want:
+                out.append(f"{section} / {key}: {got!r}, PX4 {want!r}")
+    return out
+
+
+def _close(a: float, b: float) -> bool:
+    return a == b or (math.isfinite(a) and math.isfinite(b) and abs(a - b) <= 1e-4 * max(1, abs(b)))

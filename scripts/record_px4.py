@@ -1,0 +1,92 @@
+"""Record real PX4 SITL's MAVLink answers into multicosim/px4/data/px4-<version>.json.
+
+    python scripts/record_px4.py ../shared/px4-sitl/bin/px4
+
+Runs ``multicosim px4 sitl --px4-binary BINARY`` (real PX4 flying our MuJoCo world, its own
+MAVLink links), asks it every question of :func:`multicosim.px4.conformance.record` on its
+API link, reads its parameter metadata over MAVLink FTP, and writes the answers. The
+built-in autopilot takes its parameter table and stream rates from that file, and
+tests/px4/test_conformance.py checks its answers against it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from multicosim.px4 import conformance
+
+API_PORT = 14540  # where PX4's API link sends, plus its instance number
+PX4_API_PORT = 14580  # where it listens
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("binary", help="PX4 SITL binary (bin/px4 with etc/ beside bin/)")
+    parser.add_argument("--speed", type=float, default=4.0, help="simulated s per wall s")
+    parser.add_argument(
+        "--out",
+        default=str(
+            Path(conformance.__file__).parent / "data" / f"px4-{conformance.PX4_VERSION}.json"
+        ),
+    )
+    parser.add_argument("--log", default=None, help="keep the SITL's output in this file")
+    args = parser.parse_args()
+    with open(args.log, "w+b") if args.log else tempfile.TemporaryFile() as log:
+        proc = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "multicosim.px4",
+                "sitl",
+                "--px4-binary",
+                args.binary,
+                "--speed",
+                str(args.speed),
+            ],
+            stdout=log,
+            stderr=subprocess.STDOUT,
+            start_new_session=True,
+        )
+        try:
+            instance = _instance(proc, log)
+            data = conformance.record(
+                API_PORT + instance, peer=PX4_API_PORT + instance, metadata=True
+            )
+        except BaseException:
+            log.seek(0)
+            print(log.read().decode(errors="replace")[-3000:], file=sys.stderr)
+            raise
+        finally:
+            os.killpg(proc.pid, signal.SIGTERM)
+            proc.wait(30)
+    data = {"px4": conformance.PX4_VERSION, **data}
+    Path(args.out).write_text(json.dumps(data, indent=1, sort_keys=False) + "\n")
+    print(f"wrote {args.out}: {data['count']} parameters, {len(data['streams'])} streams")
+    return 0
+
+
+def _instance(proc: subprocess.Popen[bytes], log: object) -> int:
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        log.seek(0)  # type: ignore[attr-defined]
+        text = log.read().decode(errors="replace")  # type: ignore[attr-defined]
+        found = re.search(r"real PX4 SITL instance (\d+)", text)
+        if found:
+            return int(found.group(1))
+        if proc.poll() is not None:
+            raise SystemExit(f"PX4 exited ({proc.returncode}):\n{text[-2000:]}")
+        time.sleep(0.2)
+    raise SystemExit("PX4 did not start within 60 s")
+
+
+if __name__ == "__main__":
+    sys.exit(main())

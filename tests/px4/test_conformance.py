@@ -1,0 +1,48 @@
+"""The built-in autopilot answers over MAVLink as real PX4 v1.15.4 does.
+
+Real PX4's answers were recorded from the PX4 SITL binary flying our world by
+``scripts/record_px4.py`` (``multicosim/px4/data/px4-1.15.4.json``). Here the built-in
+autopilot, run standalone as ``multicosim px4 sitl`` on loopback UDP, is asked the same
+questions in the same order by :func:`multicosim.px4.conformance.record`, and every answer
+is compared: heartbeat, streams and rates, parameters (names, types, values), parameter,
+command, mode and mission protocol answers.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+
+from multicosim.px4 import conformance
+
+pytest.importorskip("pymavlink")
+
+
+@pytest.fixture
+def builtin_answers(sitl: Any, udp_port: int) -> dict[str, Any]:
+    """The built-in autopilot's answers, standalone at medium fidelity."""
+    args = ("--fidelity", "medium", "--speed", "20", "--gcs-port", "0", "--api-port", str(udp_port))
+    with sitl(*args):
+        answers: dict[str, Any] = conformance.record(udp_port)
+    return answers
+
+
+def test_the_recorded_px4_is_v1_15_4() -> None:
+    data = conformance.load()
+    assert data["px4"] == "1.15.4"
+    assert data["params"]["NAV_ACC_RAD"]["default"] == 10.0  # PX4's firmware default
+    assert data["params"]["NAV_ACC_RAD"]["value"] == 2.0  # as its SITL start-up sets it
+
+
+def test_builtin_autopilot_answers_as_px4_does(builtin_answers: dict[str, Any]) -> None:
+    diffs = conformance.differences(conformance.load(), builtin_answers)
+    assert diffs == []
+
+
+def test_differences_are_found() -> None:
+    px4 = conformance.load()
+    other = {**px4, "streams": {}, "commands": {**px4["commands"], "USER_1": 0}}
+    diffs = conformance.differences(px4, other)
+    assert any(d.startswith("stream ATTITUDE_QUATERNION") for d in diffs)
+    assert any("USER_1" in d for d in diffs)
