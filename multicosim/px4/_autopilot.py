@@ -133,6 +133,7 @@ class Autopilot(Commander, Navigator, Failures, Commands, ParamServer, Missions,
         self._manual = None
         self._follow = None
         self._follow_course = 0.0
+        self._follow_angle = None
         self._follow_adjust = [0.0, 0.0, 0.0]
         # Ground-station link state.
         self._gcs = (255, 190)

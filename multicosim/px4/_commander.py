@@ -113,6 +113,7 @@ class Commander(State):
         self.mode = mode
         self._phase = ""
         self._follow_adjust = [0.0, 0.0, 0.0]
+        self._follow_angle = None
         self._target = None
         if not self.landed:
             self._hold = (self.est.pos[0], self.est.pos[1], self.est.pos[2])

@@ -37,6 +37,8 @@ _ZEROS12 = [0.0] * 12
 MANUAL_DEADZONE = 0.05
 MANUAL_YAW_RATE = math.radians(150.0)  # MPC_MAN_Y_MAX
 FOLLOW_HEIGHT_RATE, FOLLOW_DISTANCE_RATE, FOLLOW_ANGLE_RATE = 1.5, 2.0, 1.5  # per full stick
+FOLLOW_VELOCITY_TAU = 1.5  # s, low pass on the target's velocity estimated from its track
+FOLLOW_MIN_COURSE_SPEED = 0.1  # m/s, below which the target's course is kept
 
 # (position setpoint, vertical speed override, idle, horizontal velocity override)
 Target = tuple[Vec3, float | None, bool, tuple[float, float] | None]
@@ -312,8 +314,7 @@ class Navigator(State):
         tgt = self._follow
         if tgt is None or est.origin is None:
             return self._hold, None, False, None
-        lat, lon, _alt, vn, ve, _vd, _t = tgt
-        n, e = est.origin.project(lat, lon)
+        n, e = est.origin.project(tgt[0], tgt[1])
         adj = self._follow_adjust
         m = self._manual
         if m is not None and self._now - m[4] < 1.0:
@@ -322,9 +323,16 @@ class Navigator(State):
             adj[0] += (2.0 * m[2] - 1.0) * FOLLOW_HEIGHT_RATE * dt
             adj[1] += m[0] * FOLLOW_DISTANCE_RATE * dt
             adj[2] += m[1] * FOLLOW_ANGLE_RATE * dt
-        course = math.atan2(ve, vn) if math.hypot(vn, ve) > 0.1 else self._follow_course
-        angle = course + math.radians(p["FLW_TGT_FA"]) + adj[2]
+        want = self._follow_course + math.radians(p["FLW_TGT_FA"]) + adj[2]
         dist = max(p["FLW_TGT_DST"] + adj[1], 1.0)
+        # Fly around the target to a new angle, at most FLW_TGT_MAX_VEL along the orbit (PX4's
+        # orbit-angle trajectory), rather than through it.
+        if self._follow_angle is None:
+            self._follow_angle = want
+        turn = math.remainder(want - self._follow_angle, math.tau)
+        limit = max(p["FLW_TGT_MAX_VEL"], 0.1) / dist * self.period
+        self._follow_angle += min(max(turn, -limit), limit)
+        angle = self._follow_angle
         sp = (n + dist * math.cos(angle), e + dist * math.sin(angle))
         if math.hypot(n - est.pos[0], e - est.pos[1]) > 2.0:
             self._yaw_sp = math.atan2(e - est.pos[1], n - est.pos[0])  # face the target

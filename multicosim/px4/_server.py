@@ -12,6 +12,7 @@ import logging
 import math
 from typing import Any
 
+from ._navigator import FOLLOW_MIN_COURSE_SPEED, FOLLOW_VELOCITY_TAU
 from ._state import (
     FRAME_BODY_NED,
     FRAME_BODY_OFFSET_NED,
@@ -132,15 +133,21 @@ class Server(State):
         if (m.lat == 0 and m.lon == 0) or abs(lat) > 90 or abs(lon) > 180:
             return  # velocity alone: nothing to follow (PX4 needs a position)
         vel = [float(v) for v in m.vel]
-        if not all(math.isfinite(v) for v in vel):
-            vel = [0.0, 0.0, 0.0]
         last = self._follow
         origin = self.est.origin
-        if last is not None and origin is not None and math.hypot(vel[0], vel[1]) < 0.1:
-            n0, e0 = origin.project(last[0], last[1])
-            n1, e1 = origin.project(lat, lon)
-            if math.hypot(n1 - n0, e1 - e0) > 0.5:
-                self._follow_course = math.atan2(e1 - e0, n1 - n0)
+        if not all(math.isfinite(v) for v in vel):
+            # Position only: estimate the target's velocity from its track, low-passed as
+            # PX4's target estimator does, so that one noisy fix does not swing the course.
+            vel = [0.0, 0.0, 0.0]
+            if last is not None and origin is not None and self._now > last[6]:
+                dt = self._now - last[6]
+                n0, e0 = origin.project(last[0], last[1])
+                n1, e1 = origin.project(lat, lon)
+                k = dt / (FOLLOW_VELOCITY_TAU + dt)
+                vel[0] = last[3] + k * ((n1 - n0) / dt - last[3])
+                vel[1] = last[4] + k * ((e1 - e0) / dt - last[4])
+        if math.hypot(vel[0], vel[1]) > FOLLOW_MIN_COURSE_SPEED:
+            self._follow_course = math.atan2(vel[1], vel[0])
         self._follow = (lat, lon, float(m.alt), vel[0], vel[1], vel[2], self._now)
 
 

@@ -135,6 +135,7 @@ class State:
     _follow: tuple[float, float, float, float, float, float, float] | None
     _follow_adjust: list[float]  # height, distance, angle set by the sticks while following
     _follow_course: float  # rad, the target's course (from its velocity or its track)
+    _follow_angle: float | None  # rad, where around the target the vehicle is headed now
     # Ground-station link.
     _d: Any
     mav: Any
