@@ -99,6 +99,9 @@ class _Link:
         # mission_type: fence and rally lists would arrive as missions).
         self.conn.mav = dialect().MAVLink(self.conn, srcSystem=245, srcComponent=190)
         self.conn.mav.robust_parsing = True
+        # A sped-up autopilot streams thousands of datagrams a second: a deep receive buffer
+        # keeps its answers from being dropped while this reader is descheduled.
+        self.conn.port.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 8 << 20)
         self.mav: Any = self.conn.mav
         self.peer = peer
         self._beat = 0.0
@@ -233,9 +236,12 @@ def _param_answers(link: _Link) -> dict[str, Any]:
 
     def answer(send: Any) -> Any:
         link.texts.clear()
-        send()
-        m = link.wait(lambda m: m.get_type() in ("PARAM_VALUE", "PARAM_ERROR"), 1.0)
-        if m is None:
+        for _ in range(3):  # as ground stations do: a datagram may be lost on a busy host
+            send()
+            m = link.wait(lambda m: m.get_type() in ("PARAM_VALUE", "PARAM_ERROR"), 1.0)
+            if m is not None:
+                break
+        else:
             return {"reply": None}
         out: dict[str, Any] = {"reply": m.get_type(), "name": _name(m.param_id)}
         if m.get_type() == "PARAM_VALUE":

@@ -30,6 +30,7 @@ from pytest_multicosim.px4 import real_px4
 
 pytest.importorskip("mavsdk.asyncio", reason="mavsdk (pip install mavsdk) not installed")
 
+MAV_AUTOPILOT_INVALID = 8  # a ground station's heartbeat
 SPEED = 6.0  # simulated seconds per wall second (PX4_SIM_SPEED_FACTOR)
 API_PORT = 14540
 WALL_SLACK = 120.0  # wall seconds beyond a simulated timeout before a stalled run is failed
@@ -113,6 +114,7 @@ class Tester:
         self.checks: list[str] = []  # failed CHECKs: the case goes on, and fails at the end
         self.home: Any = None
         self.custom_mode = -1
+        self.sysid = 1
         self._tasks: list[asyncio.Task[None]] = []
         self._sim_us = 0
 
@@ -136,8 +138,11 @@ class Tester:
         import json
 
         async for m in self.direct.subscribe_message("HEARTBEAT"):
-            if m.system_id == 1 and m.component_id == 1:
-                self.custom_mode = int(json.loads(m.fields_json)["custom_mode"])
+            fields = json.loads(m.fields_json)
+            # The autopilot's own heartbeat (PX4 instance N is system N + 1).
+            if m.component_id == 1 and fields["autopilot"] != MAV_AUTOPILOT_INVALID:
+                self.sysid = m.system_id
+                self.custom_mode = int(fields["custom_mode"])
 
     @property
     def now(self) -> float:
@@ -1013,7 +1018,7 @@ async def _reposition(t: Tester, n: float, e: float, change_mode: bool = True) -
     lat, lon = proj.reproject(n, e)
     home = await t.telemetry.home()
     fields = {
-        "target_system": 1,
+        "target_system": t.sysid,
         "target_component": 1,
         "frame": 5,  # MAV_FRAME_GLOBAL_INT
         "command": 192,  # MAV_CMD_DO_REPOSITION
@@ -1028,7 +1033,7 @@ async def _reposition(t: Tester, n: float, e: float, change_mode: bool = True) -
         "z": home.absolute_altitude_m + 10.0,
     }
     message = MavlinkMessage(
-        "COMMAND_INT", 245, 190, 1, 1, json.dumps(fields).replace("NaN", "null")
+        "COMMAND_INT", 245, 190, t.sysid, 1, json.dumps(fields).replace("NaN", "null")
     )
     t.check(await _succeeds(t.direct.send_message(message)), "DO_REPOSITION sent")
 
