@@ -35,7 +35,7 @@ import re
 import socket
 import sys
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
 
@@ -401,6 +401,18 @@ class SitlNodes:
         """Track ``node`` (stopped before those added earlier)."""
         self.nodes.append((name, node))
 
+    @contextlib.contextmanager
+    def starting(self) -> Iterator[SitlNodes]:
+        """Stop every part started so far if the start fails; the start's error propagates."""
+        try:
+            yield self
+        except BaseException as exc:
+            try:
+                self.stop()
+            except Exception as cleanup:  # the start error says what matters; keep this too
+                exc.add_note(f"while stopping what had started: {cleanup!r}")
+            raise
+
     def flight_logs(self, into: Path) -> list[Path]:
         """PX4's ULog files (``log/**/*.ulg``), copied out of a container into ``into``."""
         container = getattr(self.process, "container", None)
@@ -418,7 +430,8 @@ class SitlNodes:
         stop_all([(name, node.stop) for name, node in reversed(nodes)], f"component {self.name!r}")
 
 
-def _copy_out(container: Any, path: str, into: Path) -> list[Path]:
+def _copy_out(container: Any, path: str, into: Path, suffix: str = ".ulg") -> list[Path]:
+    """The ``suffix`` files under ``path`` in ``container``, copied into ``into``."""
     import io
     import tarfile
 
@@ -429,9 +442,9 @@ def _copy_out(container: Any, path: str, into: Path) -> list[Path]:
     data = io.BytesIO(b"".join(stream))
     into.mkdir(parents=True, exist_ok=True)
     with tarfile.open(fileobj=data) as tar:
-        members = [m for m in tar.getmembers() if m.isfile() and m.name.endswith(".ulg")]
+        members = [m for m in tar.getmembers() if m.isfile() and m.name.endswith(suffix)]
         tar.extractall(into, members=members, filter="data")
-    return sorted(into.glob("**/*.ulg"))
+    return sorted(into.glob(f"**/*{suffix}"))
 
 
 def start_sitl(
@@ -459,7 +472,7 @@ def start_sitl(
 
     group = SitlNodes(name)
     container = _is_container_environment(environment)
-    try:
+    with group.starting():
         if container:
             # Each simulation has a network of its own: PX4 is instance 0 in its container
             # and reaches the bridge on the network's gateway, where nothing else listens.
@@ -517,12 +530,6 @@ def start_sitl(
         bridge.watch = process
         wait_connected(bridge, process, name, sitl.start_timeout)
         log.info("%s: PX4 instance %d connected to its simulator", name, instance)
-    except BaseException as exc:
-        try:
-            group.stop()
-        except Exception as cleanup:  # the start error says what matters; keep this beside it
-            exc.add_note(f"while stopping what had started: {cleanup!r}")
-        raise
     return group
 
 
@@ -553,8 +560,6 @@ def _start_container(
     links: Sequence[MavlinkLink],
     params: Mapping[str, float],
 ) -> Any:
-    from ..docker import ContainerComponent
-
     assert sitl.image is not None
     command = container_command(
         instance=instance,
@@ -563,6 +568,14 @@ def _start_container(
         params=params,
         model=sitl.model,
     )
-    return ContainerComponent(
-        sitl.image, command, name=name, ready="started", stop_timeout=10.0
+    return run_container(environment, sitl.image, command, name)
+
+
+def run_container(environment: Any, image: str, command: list[str], name: str) -> Node:
+    """Start firmware ``command`` in a container of ``image`` on the simulation's network."""
+    from ..docker import ContainerComponent
+
+    node: Node = ContainerComponent(
+        image, command, name=name, ready="started", stop_timeout=10.0
     ).start(environment)
+    return node

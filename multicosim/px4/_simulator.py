@@ -61,6 +61,7 @@ __all__ = [
     "PX4",
     "Backend",
     "Fidelity",
+    "MissionNode",
     "PX4Component",
     "PX4Node",
     "PX4Simulation",
@@ -182,12 +183,13 @@ class WorldComponent:
         )
 
 
-class PX4Node:
-    """The PX4 firmware node: ``send(Configuration) -> MissionResult`` flies a mission.
+class MissionNode:
+    """A firmware node flown by a ground station: ``send(Configuration) -> MissionResult``.
 
     ``send`` acts as the ground station (the reference's MAVSDK script): it validates the
-    configuration against the geofence, sets parameters, uploads the mission, arms, starts
-    it and records the trajectory until the mission ends or its time limit passes.
+    configuration (``check``), sets parameters, uploads the mission, arms, starts it and
+    records the trajectory until the mission ends or its time limit passes. ``component``
+    is what started it (its ``world`` has home, its ``geofence`` bounds missions).
     """
 
     def __init__(
@@ -195,7 +197,7 @@ class PX4Node:
         name: str,
         gcs: InProcessFirmwareNode[Configuration, MissionResult],
         autopilot: Node,
-        component: PX4Component,
+        component: Any,
     ) -> None:
         self.name = name
         self._gcs = gcs
@@ -204,21 +206,20 @@ class PX4Node:
         self._stopped = False
 
     @property
-    def autopilot(self) -> Autopilot | None:
-        """The live autopilot object when it runs in this process (for inspection)."""
-        return getattr(self._autopilot, "participant", None)
-
-    @property
     def container(self) -> ContainerNode | None:
         """The autopilot's container node when it runs in one (the docker backend)."""
         # Also how a ContainerSimulation finds it, to signal it at stop with the others.
         # Without the docker backend loaded there is no container (and no SDK to import).
         components = sys.modules.get("multicosim.docker._components")
-        # Real PX4's nodes keep its process or container as ``process``.
+        # Real firmware's nodes keep its process or container as ``process``.
         node = getattr(self._autopilot, "process", self._autopilot)
         if components is not None and isinstance(node, components.ContainerNode):
             return cast("ContainerNode", node)
         return None
+
+    def check(self, msg: Configuration) -> None:
+        """Raise ConfigurationError if ``msg`` cannot be flown (a waypoint outside the fence)."""
+        msg.check_geofence(self._component.world.home, self._component.geofence)
 
     def send(self, msg: Configuration) -> MissionResult:
         """Fly the mission in ``msg`` and return its result."""
@@ -228,7 +229,7 @@ class PX4Node:
             raise MessageTypeError(
                 "msg", msg, f"a {type_name(Configuration)} (the message type of {self.name!r})"
             )
-        msg.check_geofence(self._component.world.home, self._component.geofence)
+        self.check(msg)
         return self._gcs.send(msg)
 
     def stop(self) -> None:
@@ -242,6 +243,15 @@ class PX4Node:
             [(f"{self.name}.gcs", self._gcs.stop), (self.name, self._autopilot.stop)],
             f"component {self.name!r}",
         )
+
+
+class PX4Node(MissionNode):
+    """The PX4 firmware node: ``send(Configuration) -> MissionResult`` flies a mission."""
+
+    @property
+    def autopilot(self) -> Autopilot | None:
+        """The live autopilot object when it runs in this process (for inspection)."""
+        return getattr(self._autopilot, "participant", None)
 
 
 @dataclasses.dataclass(frozen=True)
