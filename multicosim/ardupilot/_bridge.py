@@ -171,6 +171,8 @@ class JsonBridge(Lockstep):
         mavlink.setblocking(False)
         self._physics = physics
         self._listener = mavlink
+        self.mavlink_port = int(mavlink.getsockname()[1])
+        """The TCP port ArduPilot's MAVLink link connects to."""
         self._peer: tuple[str, int] | None = None
         self._pending: tuple[int, int, tuple[int, ...]] | None = None  # count, rate, pwm
         self._answered: int | None = None  # frame count of the last packet answered
@@ -193,11 +195,6 @@ class JsonBridge(Lockstep):
     def physics_port(self) -> int:
         """The UDP port ArduPilot sends its servo packets to."""
         return int(self._physics.getsockname()[1])
-
-    @property
-    def mavlink_port(self) -> int:
-        """The TCP port ArduPilot's MAVLink link connects to."""
-        return int(self._listener.getsockname()[1])
 
     @property
     def started(self) -> bool:
@@ -355,9 +352,11 @@ class JsonBridge(Lockstep):
             conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
             self._link = conn
             self._pending_down = self._framer.feed(bytes(seen))
+            # ArduPilot is connected: nobody else gets in (nothing listens any more).
             for other in self._clients:
                 other.close()
             self._clients = {}
+            self._listener.close()
             return
 
     def _exchange_mavlink(self, ctx: StepContext, *, publish_only: bool = False) -> None:

@@ -18,6 +18,7 @@ __all__ = ["NedState", "Vec3", "ned_state", "truth"]
 
 Vec3 = tuple[float, float, float]
 
+
 class NedState(NamedTuple):
     """A body's true state in the autopilots' frames.
 
