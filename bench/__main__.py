@@ -40,6 +40,7 @@ BENCHMARKS = (
     "px4",
     "px4_low",
     "sitl",
+    "ardupilot",
     "docker",
     "throughput",
     "scaling",
@@ -411,6 +412,7 @@ BUILDERS: dict[str, Callable[[dict[str, dict[str, Any]]], list[Row]]] = {
     "px4": lambda r: speed_rows(r["px4"], "PX4"),
     "px4_low": lambda r: px4_low_rows(r["px4_low"]),
     "sitl": lambda r: sitl_rows(r["sitl"]),
+    "ardupilot": lambda r: ardupilot_rows(r["ardupilot"]),
     "physics": lambda r: physics_rows(r.get("rover"), r.get("px4")),
     "transport": lambda r: transport_rows(r["transport"]),
     "docker": lambda r: docker_rows(r["docker"]),
@@ -457,6 +459,49 @@ def sitl_rows(data: dict[str, Any]) -> list[Row]:
                 f"ratio {t['time_ratio_mean']:.2f}; same waypoints "
                 f"{t['same_waypoints']}/{t['missions']}",
                 ratio=t["mean_distance_m"],
+                unit="m",
+            )
+        )
+    return rows
+
+
+def ardupilot_rows(data: dict[str, Any]) -> list[Row]:
+    """Real ArduPilot SITL: lockstep speed, and one mission on three autopilots side by side."""
+    if "skipped" in data:
+        return [
+            row("real ArduPilot", "ArduPilot SITL in lockstep", "skipped", limit=data["skipped"])
+        ]
+    rows: list[Row] = []
+    for vehicle, name in (("copter", "ArduCopter"), ("rover", "ArduRover")):
+        r = data["speed"][vehicle]
+        share = r["share"]
+        met = r["speed_factor"] >= r["target"]
+        rows.append(
+            row(
+                "real ArduPilot (medium, process)",
+                f"{name} mission, {r['sim_s']:.0f} s with its start-up",
+                f"{r['speed_factor']:.1f}x real time; wall time: ArduPilot "
+                f"{share['ardupilot']:.0%}, world {share['world']:.0%}, rest {share['rest']:.0%}",
+                ratio=r["speed_factor"],
+                unit="x",
+                target=f">= {r['target']:g}x",
+                met=met,
+                limit=""
+                if met
+                else "one lockstep exchange per 2.5 ms frame (ArduPilot's loop rate), MuJoCo "
+                "stepped and its state sent each frame, on the same 2 cores as everything else",
+            )
+        )
+    side = data["side_by_side"]
+    flights = ", ".join(f"{n} {a['flight_s']:.0f} s" for n, a in side["autopilots"].items())
+    rows.append(row("same copter mission, three autopilots", "takeoff to landed (medium)", flights))
+    for pair, d in side["paths"].items():
+        rows.append(
+            row(
+                "same copter mission, three autopilots",
+                f"true path distance, {pair}",
+                f"mean {d['mean_distance_m']:.2f} m, max {d['max_distance_m']:.2f} m",
+                ratio=d["mean_distance_m"],
                 unit="m",
             )
         )

@@ -26,7 +26,6 @@ container, the simulation's network is ArduPilot's alone.
 from __future__ import annotations
 
 import contextlib
-import errno
 import logging
 import os
 import select
@@ -245,23 +244,29 @@ class JsonBridge(Lockstep):
 
     def step(self, ctx: StepContext) -> None:
         """Answer ArduPilot's pending packet with the state now, wait for the next one."""
-        self._exchange_mavlink(ctx)
+        self._accept()
+        self._send_uplink()
         truth = self._truth.latest if self._truth is not None else None
         if truth is None or not self.poll_started():
-            return  # ArduPilot is not stepping yet (or no state to send): nothing to answer
+            # ArduPilot is not stepping yet (or there is no state to send): nothing to answer.
+            self._read_downlink(ctx)
+            return
         pending = self._pending
-        if pending is not None:
-            self._answer(pending[0], json_state(ctx.time, truth))
+        reply = json_state(ctx.time, truth)
         start = time.monotonic()
         try:
+            if pending is not None:
+                self._answer(pending[0], reply)
             packet = self._await_packet()
         finally:
+            # From the answer to the next packet: ArduPilot's frame (and, on a busy machine,
+            # the wait for a core to run it on).
             self.wait_s += time.monotonic() - start
         self._pending = packet
         count, rate, pwm = packet
-        _, servos, _, _ = self.topics
-        ctx.publish(servos, ServoOutputs(count, rate, pwm))
-        self._exchange_mavlink(ctx, publish_only=True)
+        ctx.publish(self.topics[1], ServoOutputs(count, rate, pwm))
+        # Everything ArduPilot sent during that frame is in before its next servo packet.
+        self._read_downlink(ctx)
 
     def _answer(self, count: int, reply: bytes) -> None:
         assert self._peer is not None
@@ -273,29 +278,28 @@ class JsonBridge(Lockstep):
 
     def _await_packet(self) -> tuple[int, int, tuple[int, ...]]:
         deadline = time.monotonic() + self.lockstep_timeout
+        physics = [self._physics]
         while True:
-            packet = self._read_packet()
-            if packet is not None:
-                count = packet[0]
-                answered = self._answered
-                if answered is None or count > answered:
-                    return packet
-                if count == answered:
-                    # ArduPilot resent the packet (it waited a second for our answer):
-                    # answer it again, the same state, time not advanced.
-                    self.resends += 1
-                    with contextlib.suppress(OSError):
-                        assert self._peer is not None
-                        self._physics.sendto(self._last_reply, self._peer)
-                    continue
-                raise self._restarted(answered, count)
-            left = deadline - time.monotonic()
-            if left <= 0:
-                raise self._silent("servo packet")
             # Short slices: an ArduPilot that exits is noticed at once, not after the timeout.
-            ready, _, _ = select.select([self._physics], [], [], min(left, 0.2))
-            if not ready:
+            ready, _, _ = select.select(physics, [], [], 0.2)
+            packet = self._read_packet() if ready else None
+            if packet is None:
+                if time.monotonic() > deadline:
+                    raise self._silent("servo packet")
                 self._check_alive()
+                continue
+            count = packet[0]
+            answered = self._answered
+            if answered is None or count > answered:
+                return packet
+            if count < answered:
+                raise self._restarted(answered, count)
+            # ArduPilot resent the packet (it waited a second for our answer): answer it
+            # again, the same state, time not advanced.
+            self.resends += 1
+            with contextlib.suppress(OSError):
+                assert self._peer is not None
+                self._physics.sendto(self._last_reply, self._peer)
 
     def _where(self) -> str:
         return f"physics frame {self.frames}"
@@ -359,20 +363,22 @@ class JsonBridge(Lockstep):
             self._listener.close()
             return
 
-    def _exchange_mavlink(self, ctx: StepContext, *, publish_only: bool = False) -> None:
-        """Send the ground station's frames to ArduPilot; publish ArduPilot's frames."""
-        self._accept()
+    def _send_uplink(self) -> None:
+        """Send the ground station's frames to ArduPilot (held until its link is known)."""
+        up = self._up
+        if up is not None and up._deliveries:
+            self._backlog.extend(p.data for p in up.messages)
         link = self._link
-        if not publish_only:
-            up = self._up
-            if up is not None and up._deliveries:
-                self._backlog.extend(p.data for p in up.messages)
-            if link is not None and self._backlog:
-                data, self._backlog = b"".join(self._backlog), []
-                try:
-                    link.sendall(data)
-                except OSError as exc:
-                    raise self._lost(f"closed its MAVLink connection ({exc})") from exc
+        if link is not None and self._backlog:
+            data, self._backlog = b"".join(self._backlog), []
+            try:
+                link.sendall(data)
+            except OSError as exc:
+                raise self._lost(f"closed its MAVLink connection ({exc})") from exc
+
+    def _read_downlink(self, ctx: StepContext) -> None:
+        """Publish the whole MAVLink frames ArduPilot has sent."""
+        link = self._link
         if link is None:
             return
         chunks = [self._pending_down]
@@ -383,8 +389,6 @@ class JsonBridge(Lockstep):
             except (BlockingIOError, InterruptedError):
                 break
             except OSError as exc:
-                if exc.errno == errno.EAGAIN:
-                    break
                 raise self._lost(f"closed its MAVLink connection ({exc})") from exc
             if not data:
                 raise self._lost("closed its MAVLink connection")

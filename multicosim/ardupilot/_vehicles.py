@@ -84,6 +84,7 @@ class ArduRoverVehicle(RoverVehicle):
         self._projection: LocalProjection | None = None
         self._site = -1
         self._velocity = np.zeros(6)
+        self._readings: list[Any] = []
 
     def setup(self, physics: Physics, ctx: StepContext, topics: Mapping[str, str]) -> None:
         """Find the wheels and sensors; subscribe to ArduPilot's outputs."""
@@ -92,6 +93,9 @@ class ArduRoverVehicle(RoverVehicle):
         self._truth_topic = topics["truth"]
         self._projection = LocalProjection.at(physics.config.home)
         self._site = mujoco.mj_name2id(physics.model, mujoco.mjtObj.mjOBJ_SITE, "sensors")
+        self._readings = [
+            physics.sensor(name) for name in ("position", "orientation", "accelerometer", "gyro")
+        ]
 
     def actuate(self, physics: Physics, ctx: StepContext) -> None:
         """Steer and drive from ArduRover's steering and throttle outputs."""
@@ -108,15 +112,9 @@ class ArduRoverVehicle(RoverVehicle):
         mujoco.mj_objectVelocity(
             physics.model, physics.data, mujoco.mjtObj.mjOBJ_SITE, self._site, velocity, 0
         )
+        position, orientation, accelerometer, gyro = (r.tolist() for r in self._readings)
         v: Any = velocity[3:].tolist()
-        return ned_state(
-            physics.sensor("position").tolist(),
-            v,
-            physics.sensor("orientation").tolist(),
-            physics.sensor("accelerometer").tolist(),
-            physics.sensor("gyro").tolist(),
-            AXLE_HEIGHT,
-        )
+        return ned_state(position, v, orientation, accelerometer, gyro, AXLE_HEIGHT)
 
     def sense(self, physics: Physics, ctx: StepContext) -> None:
         """Publish the true state reached."""

@@ -44,7 +44,15 @@ from .._local import (
 )
 from .._messages import type_name
 from ._autopilot import Autopilot, AutopilotSpec
-from ._config import Configuration, Geofence, MissionResult, MuJoCo, Topics, world_topics
+from ._config import (
+    Configuration,
+    Geofence,
+    Home,
+    MissionResult,
+    MuJoCo,
+    Topics,
+    world_topics,
+)
 from ._gcs import GcsSpec, ground_station
 from ._hil import Wire
 from ._real import SENSOR_RATE, SITL, start_sitl
@@ -248,6 +256,8 @@ class MissionNode:
 class PX4Node(MissionNode):
     """The PX4 firmware node: ``send(Configuration) -> MissionResult`` flies a mission."""
 
+    _component: PX4Component
+
     @property
     def autopilot(self) -> Autopilot | None:
         """The live autopilot object when it runs in this process (for inspection)."""
@@ -412,6 +422,11 @@ class PX4Simulation(ScenarioSimulation):
         super().__init__(simulation)
         self.firmware: PX4Node = simulation.get(firmware_id)
         self.world: Node = simulation.get(world_id)
+
+    @property
+    def home(self) -> Home:
+        """Where the autopilot's home is (latitude, longitude, altitude AMSL): the origin."""
+        return self.firmware._component.world.home
 
     def trace_options(self) -> TraceOptions:
         """What a recorder of this simulation should know (types, decoders, Foxglove channels)."""
