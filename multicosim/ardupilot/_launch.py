@@ -30,6 +30,7 @@ import math
 import os
 import re
 import socket
+import sys
 import threading
 import time
 from collections.abc import Mapping
@@ -74,6 +75,7 @@ MAVLINK_PORT = 5760  # SERIAL0's TCP port of instance 0, + 10 N (a foreign SITL'
 RC_PORT = 5501  # RC input UDP port of instance 0, + 10 N (a foreign SITL's sign)
 MAX_INSTANCE = 99
 OVERLAY = "multicosim.parm"
+GUARD = Path(__file__).with_name("_guard.py")
 CONTAINER_DIR = "/opt/ardupilot"
 CONTAINER_WORKDIR = "/ardupilot"
 
@@ -461,8 +463,10 @@ def start_ardupilot(
                 home=home,
                 mavlink_port=bridge.mavlink_port,
             )
+            # Through the guard: ArduPilot does not outlive this process (see _guard.py).
+            guarded = [sys.executable, "-I", str(GUARD), *command]
             process = ProcessComponent(
-                command, name=name, cwd=str(workdir), ready="started", stop_timeout=10.0
+                guarded, name=name, cwd=str(workdir), ready="started", stop_timeout=10.0
             ).start(environment)
             bridge.peer_check = _owned_by(process.pid)
         group.add(name, process)

@@ -10,8 +10,11 @@ from __future__ import annotations
 import json
 import math
 import os
+import signal
 import socket
 import struct
+import subprocess
+import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -252,3 +255,50 @@ def test_only_the_firmwares_own_sockets_are_answered() -> None:
             assert bridge.poll_started()
     finally:
         bridge.close()
+
+
+def test_arducopter_does_not_outlive_a_killed_simulation(tmp_path: Path) -> None:
+    directory = fake_ardupilot(tmp_path / "ardupilot", "climb")
+    program = (
+        "import sys, time, multicosim.ardupilot as a\n"
+        f"sim = a.Copter(firmware_dir={str(directory)!r}).start()\n"
+        "sim.advance(0.1)\n"
+        "print(sim.firmware._autopilot.process.pid, flush=True)\n"
+        "time.sleep(120)\n"
+    )
+    host = subprocess.Popen(
+        [sys.executable, "-c", program], stdout=subprocess.PIPE, text=True, start_new_session=True
+    )
+    try:
+        assert host.stdout is not None
+        firmware = int(host.stdout.readline())
+        os.kill(host.pid, signal.SIGKILL)  # no cleanup of any kind
+        host.wait(10)
+        deadline = time.monotonic() + 10
+        while time.monotonic() < deadline:
+            try:
+                os.kill(firmware, 0)
+            except ProcessLookupError:
+                break
+            time.sleep(0.1)
+        else:
+            os.kill(firmware, signal.SIGKILL)
+            pytest.fail("the firmware outlived the simulation that started it")
+    finally:
+        if host.poll() is None:
+            os.killpg(host.pid, signal.SIGKILL)
+            host.wait(10)
+        assert host.stdout is not None
+        host.stdout.close()
+
+
+def test_missions_are_checked_before_they_are_flown(tmp_path: Path) -> None:
+    with ardupilot.Rover(firmware_dir=str(fake_ardupilot(tmp_path, "climb"))).start() as sim:
+        near = ardupilot.Waypoint(sim.home.lat + 1e-4, sim.home.lon, 0.0)
+        with pytest.raises(mcs.ConfigurationError, match=r"cruise_speed=12.*top speed"):
+            sim.firmware.send(ardupilot.Configuration([near], cruise_speed=12.0))
+        far = ardupilot.Waypoint(sim.home.lat + 0.1, sim.home.lon, 0.0)  # 11 km north
+        with pytest.raises(mcs.ConfigurationError, match="geofence"):
+            sim.firmware.send(ardupilot.Configuration([far]))
+        with pytest.raises(mcs.MessageTypeError):
+            sim.firmware.send("fly")  # type: ignore[arg-type]
