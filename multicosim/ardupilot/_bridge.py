@@ -38,7 +38,7 @@ from typing import Any
 
 import msgspec
 
-from .._errors import MulticosimError, NodeCrashedError, NodeStartError
+from .._errors import MulticosimError, NodeCrashedError
 from .._local import Watch, mark_reported
 from .._runtime import StepContext, Subscription
 from ..px4._hil import MavlinkPacket, Truth
@@ -46,8 +46,12 @@ from ..px4._hilserver import Lockstep
 from ..px4._mav import new_link
 
 __all__ = [
+    "DOWNLINK",
     "MAGIC16",
     "MAGIC32",
+    "SERVO_TOPIC",
+    "TRUTH_TOPIC",
+    "UPLINK",
     "JsonBridge",
     "MavlinkFramer",
     "ServoOutputs",
@@ -56,6 +60,13 @@ __all__ = [
 ]
 
 log = logging.getLogger(__name__)
+
+TRUTH_TOPIC = "ardupilot/truth"
+"""Where the world publishes its true state every physics frame (what the bridge sends)."""
+SERVO_TOPIC = "ardupilot/servos"
+"""Where the bridge publishes ArduPilot's servo outputs (what the world applies)."""
+UPLINK, DOWNLINK = "ardupilot/mavlink/up", "ardupilot/mavlink/down"
+"""ArduPilot's MAVLink link as topics: to ArduPilot, and from it."""
 
 MAGIC16, MAGIC32 = 18458, 29569
 """Servo packet magic numbers: 16 outputs (40 bytes), 32 outputs (72 bytes)."""
@@ -435,10 +446,3 @@ class JsonBridge(Lockstep):
         return (
             f"JsonBridge({self.name!r}, UDP {self.physics_port}, TCP {self.mavlink_port}, {state})"
         )
-
-
-def start_error(name: str, what: str, watch: Any, exit_code: int | None = None) -> NodeStartError:
-    """A NodeStartError for ArduPilot with its output tail (its exit remembered as reported)."""
-    if exit_code is not None:
-        mark_reported(watch)
-    return NodeStartError(name, what, exit_code=exit_code, log_tail=watch.log_tail())

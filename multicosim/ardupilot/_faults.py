@@ -37,6 +37,7 @@ from ..attacks._models import Additive, Delay, Dropout, Model, Offsets, check_mo
 from ..geo import Home, LocalProjection
 from ..px4._hil import MavlinkPacket
 from ..px4._mav import decode_frames, new_link
+from ._bridge import DOWNLINK, UPLINK
 
 __all__ = ["SENSORS", "FaultsComponent", "FaultsConfig", "SimulatedFaults"]
 
@@ -73,8 +74,8 @@ class FaultsConfig(msgspec.Struct, frozen=True, kw_only=True):
     sensor: str
     models: tuple[Model, ...]
     home: Home = Home()
-    uplink: str = "ardupilot/mavlink/up"
-    downlink: str = "ardupilot/mavlink/down"
+    uplink: str = UPLINK
+    downlink: str = DOWNLINK
     period: float = 0.2
 
     def __post_init__(self) -> None:

@@ -19,7 +19,6 @@ No MuJoCo here: the parameters are computed before anything starts.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 
 from .._errors import ConfigurationError
@@ -113,10 +112,3 @@ def rover_params(max_speed: float, cruise_speed: float = 5.0) -> dict[str, float
         "CRUISE_THROTTLE": round(100.0 * cruise_speed / max_speed, 1),
         "SIM_RATE_HZ": FRAME_RATE,
     }
-
-
-def finite(field: str, value: object) -> float:
-    """``value`` as a float; ConfigurationError naming ``field`` unless a finite number."""
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise ConfigurationError(field, value, "a finite number")
-    return float(value)

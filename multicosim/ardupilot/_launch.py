@@ -39,6 +39,7 @@ from typing import TYPE_CHECKING, Any, Literal
 
 from .._errors import ConfigurationError, NodeStartError
 from .._interfaces import Node
+from .._local import mark_reported
 from ..geo import Home
 from ..px4._real import (
     SitlNodes,
@@ -48,7 +49,7 @@ from ..px4._real import (
     _udp_free,
     run_container,
 )
-from ._bridge import JsonBridge, process_ports, start_error
+from ._bridge import JsonBridge, PeerCheck, process_ports
 
 if TYPE_CHECKING:
     from .._local import LocalEnvironment
@@ -324,6 +325,13 @@ def container_command(
 # -- starting it ----------------------------------------------------------------------------
 
 
+def start_error(name: str, what: str, watch: Any, exit_code: int | None = None) -> NodeStartError:
+    """A NodeStartError for ArduPilot with its output tail (its exit remembered as reported)."""
+    if exit_code is not None:
+        mark_reported(watch)
+    return NodeStartError(name, what, exit_code=exit_code, log_tail=watch.log_tail())
+
+
 def wait_started(bridge: JsonBridge, process: Any, name: str, timeout: float) -> None:
     """Wait for ArduPilot's first servo packet; NodeStartError with its output if none comes."""
     deadline = time.monotonic() + timeout
@@ -478,7 +486,7 @@ def start_ardupilot(
     return group
 
 
-def _owned_by(pid: int) -> Any:
+def _owned_by(pid: int) -> PeerCheck:
     """A peer check: traffic from a loopback socket that process ``pid`` holds."""
 
     def check(proto: str, addr: tuple[str, int]) -> bool:

@@ -36,9 +36,9 @@ from ..px4._config import Configuration, Geofence
 from ..px4._gcs import GcsSpec, Procedure, ground_station
 from ..px4._simulator import MissionNode
 from ..rover._messages import MAX_SPEED
+from ._bridge import DOWNLINK, SERVO_TOPIC, TRUTH_TOPIC, UPLINK
 from ._frames import FRAME_RATE, copter_params, rover_params
 from ._launch import SITL, ArduPilotNodes, Vehicle, check_params, start_ardupilot
-from ._vehicles import SERVO_TOPIC, TRUTH_TOPIC
 
 if TYPE_CHECKING:
     from ..docker import ContainerEnvironment, ContainerSimulator
@@ -64,8 +64,6 @@ Backend = Literal["process", "docker"]
 FIDELITIES: tuple[Fidelity, ...] = ("medium", "high")
 BACKENDS: tuple[Backend, ...] = ("process", "docker")
 FRAME_PERIOD = 1.0 / FRAME_RATE
-UPLINK = "ardupilot/mavlink/up"
-DOWNLINK = "ardupilot/mavlink/down"
 
 # Medium: one MuJoCo step per physics frame. High: five, and more solver iterations (the
 # rover's contacts get more, as in the rover scenario).

@@ -23,17 +23,14 @@ from ..mujoco._rover import RoverVehicle
 from ..px4._airframe import NONE_IRIS, Airframe
 from ..rover._messages import MAX_SPEED, MAX_STEERING
 from ..rover._vehicle import AXLE_HEIGHT
-from ._bridge import ServoOutputs
+from ._bridge import SERVO_TOPIC, TRUTH_TOPIC, ServoOutputs
 from ._frames import check_quad_x, motor_outputs, rover_command
 
 if TYPE_CHECKING:
     from .._runtime import StepContext, Subscription
     from ..mujoco._world import Physics
 
-__all__ = ["SERVO_TOPIC", "TRUTH_TOPIC", "ArduCopterVehicle", "ArduRoverVehicle"]
-
-TRUTH_TOPIC = "ardupilot/truth"
-SERVO_TOPIC = "ardupilot/servos"
+__all__ = ["ArduCopterVehicle", "ArduRoverVehicle"]
 
 
 class ArduCopterVehicle(QuadrotorVehicle):
