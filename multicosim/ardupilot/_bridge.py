@@ -11,9 +11,11 @@ right after the world, every physics period: it answers ArduPilot's pending serv
 with the world's latest :class:`~multicosim.px4.hil.Truth` (stamped with the simulated
 time), waits for the next packet (``lockstep_timeout`` of wall time, ArduPilot's liveness
 checked meanwhile) and publishes its outputs (:class:`ServoOutputs`) for the world's next
-step. A repeated frame count is answered again without advancing; a decreasing one is
-ArduPilot restarting, an error naming it. ArduPilot's clock is the world's: a run is as fast
-as ArduPilot and the world compute.
+step. Each packet is answered once: copies ArduPilot resent while the simulation was busy
+elsewhere are dropped (a second answer would be read as the next frame's); a packet repeated
+a second after our answer (the answer was lost) is answered again without advancing; a
+decreasing frame count is ArduPilot restarting, an error naming it. ArduPilot's clock is
+the world's: a run is as fast as ArduPilot and the world compute.
 
 The same participant carries ArduPilot's MAVLink link: ArduPilot connects to it as a TCP
 client (``--serial0 tcpclient:HOST:PORT``), and the bridge moves whole MAVLink frames
@@ -73,6 +75,7 @@ MAGIC16, MAGIC32 = 18458, 29569
 _HEADER = struct.Struct("<HHI")
 _SIZES = {MAGIC16: 40, MAGIC32: 72}
 _RECV = 65536
+RESEND_AFTER = 0.9  # s: ArduPilot resends a packet after a second without an answer
 _MAX_PREAMBLE = 600  # bytes a MAVLink client may send before its first frame
 
 
@@ -187,6 +190,7 @@ class JsonBridge(Lockstep):
         self._pending: tuple[int, int, tuple[int, ...]] | None = None  # count, rate, pwm
         self._answered: int | None = None  # frame count of the last packet answered
         self._last_reply = b""
+        self._answered_at = 0.0  # wall time of the last answer
         self._link: socket.socket | None = None
         self._clients: dict[socket.socket, list[Any]] = {}  # client -> [parser, bytes seen]
         self._framer = MavlinkFramer()
@@ -197,7 +201,8 @@ class JsonBridge(Lockstep):
         self.watch: Watch | None = None
         self.peer_check: PeerCheck | None = None
         self.frames = 0  # servo packets answered
-        self.resends = 0  # repeated frame counts answered again
+        self.resends = 0  # repeated frame counts answered again (an answer was lost)
+        self.stale = 0  # copies ArduPilot resent before our answer reached it (dropped)
         self.ignored = 0  # datagrams that were not ArduPilot's servo packets
         self.wait_s = 0.0  # wall time spent waiting for ArduPilot (what ArduPilot costs)
 
@@ -267,6 +272,7 @@ class JsonBridge(Lockstep):
         start = time.monotonic()
         try:
             if pending is not None:
+                self._drop_resent(pending[0])
                 self._answer(pending[0], reply)
             packet = self._await_packet()
         finally:
@@ -279,11 +285,23 @@ class JsonBridge(Lockstep):
         # Everything ArduPilot sent during that frame is in before its next servo packet.
         self._read_downlink(ctx)
 
+    def _drop_resent(self, count: int) -> None:
+        """Drop the copies of packet ``count`` ArduPilot resent while it waited for us.
+
+        ArduPilot reads one answer per frame: a second answer to one packet would be read
+        as the next frame's, and every answer after it one frame late.
+        """
+        while (packet := self._read_packet()) is not None:
+            if packet[0] < count:
+                raise self._restarted(count, packet[0])
+            self.stale += 1
+
     def _answer(self, count: int, reply: bytes) -> None:
         assert self._peer is not None
         with contextlib.suppress(OSError):
             self._physics.sendto(reply, self._peer)
         self._answered = count
+        self._answered_at = time.monotonic()
         self._last_reply = reply
         self.frames += 1
 
@@ -305,9 +323,14 @@ class JsonBridge(Lockstep):
                 return packet
             if count < answered:
                 raise self._restarted(answered, count)
-            # ArduPilot resent the packet (it waited a second for our answer): answer it
-            # again, the same state, time not advanced.
+            if time.monotonic() - self._answered_at < RESEND_AFTER:
+                # Sent before our answer reached it: it has that answer now.
+                self.stale += 1
+                continue
+            # ArduPilot waited a second after our answer and resent the packet: the answer
+            # was lost. Answer again: the same state, time not advanced.
             self.resends += 1
+            self._answered_at = time.monotonic()
             with contextlib.suppress(OSError):
                 assert self._peer is not None
                 self._physics.sendto(self._last_reply, self._peer)

@@ -257,11 +257,20 @@ class ArduPilotSimulation(ScenarioSimulation):
         return self.firmware._component.world.home
 
     def trace_options(self) -> TraceOptions:
-        """What a recorder of this simulation should know (truth type, Foxglove channels)."""
-        from ..px4._trace import trace_options
+        """What a recorder of this simulation should know: the MAVLink link decoded, the
+        world's truth and ArduPilot's outputs typed, Foxglove channels."""
+        from ..px4._trace import mission_trace
+        from ._bridge import ServoOutputs
 
         world = self.firmware._component.world
-        return trace_options(world, world.topic("truth", TRUTH_TOPIC))
+        return mission_trace(
+            uplink=UPLINK,
+            downlink=DOWNLINK,
+            truth=world.topic("truth", TRUTH_TOPIC),
+            home=world.home,
+            types={SERVO_TOPIC: ServoOutputs},
+            dialect_name="ardupilotmega",
+        )
 
     def flight_logs(self) -> list[Path]:
         """ArduPilot's DataFlash logs so far (``logs/*.BIN``; MAVExplorer and UAV Log Viewer

@@ -113,6 +113,27 @@ def test_a_repeated_frame_is_answered_again_without_advancing(tmp_path: Path) ->
     assert nxt["state"]["timestamp"] == pytest.approx(answers[0]["state"]["timestamp"] + 0.0025)
 
 
+def test_packets_resent_while_the_simulation_paused_are_answered_once(tmp_path: Path) -> None:
+    simulator = ardupilot.Copter(firmware_dir=str(fake_ardupilot(tmp_path, "climb")))
+    with simulator.start() as simulation:
+        simulation.advance(0.1)
+        time.sleep(2.5)  # the simulation is paused: the stand-in resends its packet twice
+        simulation.advance(0.1)
+        time.sleep(2.5)
+        simulation.advance(0.1)
+        bridge = simulation.firmware._autopilot.bridge
+        assert bridge is not None
+        stale, resends = bridge.stale, bridge.resends
+        standin = received(simulation)
+    assert stale >= 4
+    assert resends == 0
+    # One answer per frame, each frame's own: no answer was read a frame late.
+    frames = [r["frame"] for r in standin if "frame" in r]
+    assert frames == list(range(len(frames)))
+    stamps = [r["state"]["timestamp"] for r in standin if "state" in r]
+    assert stamps == pytest.approx([stamps[0] + 0.0025 * i for i in range(len(stamps))])
+
+
 def test_arducopter_restarting_is_an_error_naming_it(tmp_path: Path) -> None:
     simulator = ardupilot.Copter(firmware_dir=str(fake_ardupilot(tmp_path, "restart")))
     with simulator.start() as simulation, pytest.raises(mcs.NodeCrashedError) as info:

@@ -62,6 +62,7 @@ def test_arducopter_flies_a_mission_and_leaves_its_dataflash_log(
                 frame_type = m.Value
             elif m.get_type() == "CTUN":
                 top = max(top, m.Alt)
+        log.close()
     assert result.completed, result.reason
     assert result.firmware_version == "4.5.6"
     assert [r.index for r in result.reached] == [0]
