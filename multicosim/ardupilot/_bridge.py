@@ -212,6 +212,11 @@ class JsonBridge(Lockstep):
         return int(self._physics.getsockname()[1])
 
     @property
+    def linked(self) -> bool:
+        """Whether ArduPilot's MAVLink link is connected and has spoken MAVLink."""
+        return self._link is not None
+
+    @property
     def started(self) -> bool:
         """Whether ArduPilot has sent its first servo packet."""
         return self._pending is not None or self._answered is not None

@@ -20,7 +20,7 @@ import dataclasses
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal, cast
 
-from .._errors import ConfigurationError
+from .._errors import ConfigurationError, NodeStartError
 from .._interfaces import Component, Node, NodeId
 from .._local import (
     InProcessFirmwareComponent,
@@ -64,6 +64,8 @@ Backend = Literal["process", "docker"]
 FIDELITIES: tuple[Fidelity, ...] = ("medium", "high")
 BACKENDS: tuple[Backend, ...] = ("process", "docker")
 FRAME_PERIOD = 1.0 / FRAME_RATE
+BOOT_STEP = 0.05  # s of simulated time between looks at ArduPilot's MAVLink link at start
+BOOT_LIMIT = 10.0  # s of simulated time ArduPilot gets to start speaking MAVLink
 
 # Medium: one MuJoCo step per physics frame. High: five, and more solver iterations (the
 # rover's contacts get more, as in the rover scenario).
@@ -251,6 +253,29 @@ class ArduPilotSimulation(ScenarioSimulation):
         self.firmware: ArduPilotNode = simulation.get(firmware_id)
         self.world: Node = simulation.get(world_id)
 
+    def boot(self, limit: float = BOOT_LIMIT) -> None:
+        """Run the simulation until ArduPilot has booted: its MAVLink link speaks.
+
+        ArduPilot's first physics step comes while it loads its parameters: left waiting
+        there for seconds of wall time (while another simulation runs, say), it hangs in its
+        start-up. So the simulators run it through its start-up (a few tenths of a
+        simulated second) before handing the simulation out. NodeStartError, with its output
+        tail, if it has not spoken MAVLink within ``limit`` simulated seconds.
+        """
+        autopilot = self.firmware._autopilot
+        bridge = autopilot.bridge
+        assert bridge is not None
+        deadline = self.time + limit
+        while not bridge.linked:
+            if self.time >= deadline:
+                process = autopilot.process
+                raise NodeStartError(
+                    self.firmware.name,
+                    f"sent no MAVLink within {limit:g} simulated seconds of its start",
+                    log_tail=process.log_tail() if process is not None else "",
+                )
+            self.advance(BOOT_STEP)
+
     @property
     def home(self) -> Home:
         """Where ArduPilot's home is (latitude, longitude, altitude AMSL): the world's origin."""
@@ -399,7 +424,13 @@ class _ArduPilotSimulator:
                 self._firmware, firmware=dataclasses.replace(sitl, image=image)
             )
             self._sim.replace(self.firmware_id, self._firmware)
-        return ArduPilotSimulation(self._sim.start(), self.firmware_id, self.world_id)
+        simulation = ArduPilotSimulation(self._sim.start(), self.firmware_id, self.world_id)
+        try:
+            simulation.boot()
+        except BaseException:
+            simulation.stop()
+            raise
+        return simulation
 
     def __repr__(self) -> str:
         return (

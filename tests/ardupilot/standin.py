@@ -12,7 +12,8 @@ What it receives is written to ``standin.jsonl`` in its working directory; it le
 ``climb``     full throttle on four motors (1 HEARTBEAT per 100 frames, uplink logged);
 ``resend``    as climb, and frame 20 is sent twice;
 ``restart``   as climb, but the frame count starts again from 0 after frame 50;
-``crash``     exit 7 after frame 50.
+``crash``     exit 7 after frame 50;
+``mute``      step, but never speak MAVLink.
 """
 
 from __future__ import annotations
@@ -80,7 +81,7 @@ def main() -> int:
         if behaviour == "resend" and count == 20 and not resent:
             resent = True
             exchange(count)
-        if count % 100 == 0:
+        if count % 100 == 0 and behaviour != "mute":
             link.sendall(mav.heartbeat_encode(2, 3, 0, 0, 0).pack(mav))
             try:
                 uplink = link.recv(65536)

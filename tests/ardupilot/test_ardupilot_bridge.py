@@ -28,6 +28,8 @@ from multicosim.ardupilot._bridge import ServoOutputs
 from multicosim.px4._hil import MavlinkPacket, Truth
 from multicosim.px4._mav import new_link
 
+pytestmark = pytest.mark.usefixtures("no_leaks")
+
 
 def received(simulation: ardupilot.ArduPilotSimulation) -> list[dict[str, Any]]:
     """What the stand-in received (its ``standin.jsonl``)."""
@@ -172,6 +174,15 @@ def test_a_firmware_that_never_sends_a_servo_packet_times_out(tmp_path: Path) ->
     assert "sent no servo packet to its simulator" in str(info.value)
     assert "within 1.5 s" in str(info.value)
     assert "waiting for nothing" in info.value.log_tail
+
+
+def test_a_firmware_that_never_speaks_mavlink_fails_to_start(tmp_path: Path) -> None:
+    simulator = ardupilot.Copter(firmware_dir=str(fake_ardupilot(tmp_path, "mute")))
+    with pytest.raises(mcs.NodeStartError) as info:
+        simulator.start()
+    assert info.value.name == "ardupilot"
+    assert "sent no MAVLink within 10 simulated seconds" in str(info.value)
+    assert "stand-in ArduPilot (mute)" in info.value.log_tail
 
 
 # -- the MAVLink link, and traffic from elsewhere ---------------------------------------------

@@ -38,12 +38,6 @@ def test_rover_with_gps_noise(ardupilot_rover_simulator, gps_noise):
 """
 
 
-@pytest.fixture(autouse=True)
-def no_ardupilot_in_the_environment(monkeypatch: pytest.MonkeyPatch) -> None:
-    """The inner runs see only the ArduPilot their options give (CI exports one)."""
-    monkeypatch.delenv("MCS_ARDUPILOT_DIR", raising=False)
-
-
 def test_without_ardupilot_the_tests_are_skipped_with_the_reason(
     pytester: pytest.Pytester,
 ) -> None:

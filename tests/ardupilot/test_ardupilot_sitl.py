@@ -20,6 +20,8 @@ import multicosim.ardupilot as ardupilot
 from multicosim.ardupilot._bridge import process_ports
 from multicosim.geo import LocalProjection
 
+pytestmark = pytest.mark.usefixtures("no_leaks")
+
 mavutil = pytest.importorskip("pymavlink.mavutil")
 
 
