@@ -13,6 +13,8 @@
 
 Needs ArduPilot's SITL directory: ``--ardupilot-dir DIR`` or ``MCS_ARDUPILOT_DIR``; real PX4
 joins with ``--px4-binary`` or ``MCS_PX4_BINARY``. Without ArduPilot the result says so.
+``--first-instance N`` keeps both SITLs' instance numbers at N and above (beside SITLs
+already running on the low ones).
 Usage: ``python bench/bench_ardupilot.py [--quick]``; prints a table and writes
 ``bench/results/ardupilot.json``.
 """
@@ -52,10 +54,10 @@ def rover_mission() -> ardupilot.Configuration:
 
 
 def fly_ardupilot(
-    cls: type[ardupilot.Copter], directory: str, config: ardupilot.Configuration
+    cls: type[ardupilot.Copter], sitl: ardupilot.SITL, config: ardupilot.Configuration
 ) -> tuple[ardupilot.MissionResult, dict[str, Any]]:
     """One mission on ArduPilot (medium); its result and where the wall time went."""
-    with cls(fidelity="medium", firmware_dir=directory, seed=0).start() as simulation:
+    with cls(fidelity="medium", firmware=sitl, seed=0).start() as simulation:
         spent = time_steps(simulation.world.participant)  # type: ignore[attr-defined]
         bridge = simulation.firmware._autopilot.bridge
         assert bridge is not None
@@ -96,6 +98,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--ardupilot-dir", default=os.environ.get("MCS_ARDUPILOT_DIR"))
     parser.add_argument("--px4-binary", default=os.environ.get("MCS_PX4_BINARY"))
+    parser.add_argument("--first-instance", type=int, default=0, help="lowest SITL instance")
     parser.add_argument("--quick", action="store_true", help="(the same run: it is short)")
     parser.add_argument("--output", type=Path, default=None)
     args = parser.parse_args(argv)
@@ -105,15 +108,18 @@ def main(argv: list[str] | None = None) -> int:
         print(f"skipped: {reason}")
         return 0
 
+    sitl = ardupilot.SITL(directory=args.ardupilot_dir, first_instance=args.first_instance)
+
     # 1. speed
-    copter, copter_speed = fly_ardupilot(ardupilot.Copter, args.ardupilot_dir, copter_mission())
-    _, rover_speed = fly_ardupilot(ardupilot.Rover, args.ardupilot_dir, rover_mission())
+    copter, copter_speed = fly_ardupilot(ardupilot.Copter, sitl, copter_mission())
+    _, rover_speed = fly_ardupilot(ardupilot.Rover, sitl, rover_mission())
     speed = {"copter": copter_speed, "rover": rover_speed}
 
     # 2. side by side
     flights: dict[str, px4.MissionResult] = {"ArduCopter": copter, "built-in": fly_px4(None)}
     if args.px4_binary:
-        flights["real PX4"] = fly_px4(px4.SITL(binary=args.px4_binary))
+        px4_sitl = px4.SITL(binary=args.px4_binary, first_instance=args.first_instance)
+        flights["real PX4"] = fly_px4(px4_sitl)
     compared: dict[str, Any] = {
         name: {"flight_s": flight_time(r), "reached": [w.index for w in r.reached]}
         for name, r in flights.items()

@@ -93,6 +93,7 @@ def _images_build(args: argparse.Namespace) -> int:
         force=args.force,
         progress=print if args.verbose else None,
         px4_dir=args.px4_dir,
+        ardupilot_dir=args.ardupilot_dir,
     )
     for tag in tags:
         print(tag)
@@ -163,6 +164,12 @@ def main(argv: list[str] | None = None) -> int:
         "--px4-dir",
         default=None,
         help="also build the real-PX4 image from this PX4 SITL directory (bin/px4 and etc/)",
+    )
+    p.add_argument(
+        "--ardupilot-dir",
+        default=None,
+        help="also build the ArduPilot image from this ArduPilot SITL directory "
+        "(bin/arducopter, bin/ardurover, params/)",
     )
     p.set_defaults(run=_images_build)
 

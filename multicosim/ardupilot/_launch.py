@@ -47,6 +47,7 @@ from ..px4._real import (
     _is_container_environment,
     _param_value,
     _udp_free,
+    check_first_instance,
     run_container,
 )
 from ._bridge import JsonBridge, PeerCheck, process_ports
@@ -93,6 +94,8 @@ class SITL:
     ``backend="docker"``; with only a directory, the docker backend builds that image.
     ``params`` are set at boot. ``start_timeout`` bounds (wall seconds) the start until
     ArduPilot's first servo packet; ``lockstep_timeout`` each physics step once it runs.
+    ``first_instance`` is the lowest instance number a local run claims (the ones below stay
+    free for SITLs started by hand on their usual ports).
     """
 
     directory: str | None = None
@@ -100,6 +103,7 @@ class SITL:
     params: Mapping[str, float] = dataclasses.field(default_factory=dict)
     start_timeout: float = 60.0
     lockstep_timeout: float = 30.0
+    first_instance: int = 0
 
     def __post_init__(self) -> None:
         if self.directory is None and self.image is None:
@@ -131,6 +135,7 @@ class SITL:
             value = getattr(self, field)
             if isinstance(value, bool) or not isinstance(value, int | float) or not value > 0:
                 raise ConfigurationError(field, value, "a positive number of seconds")
+        check_first_instance(self.first_instance, MAX_INSTANCE)
 
     @property
     def path(self) -> Path:
@@ -210,9 +215,10 @@ def _foreign(instance: int) -> bool:
     return not all(_tcp_free(MAVLINK_PORT + base + k) for k in range(4))
 
 
-def claim_instance(host: str = "127.0.0.1") -> tuple[int, socket.socket]:
-    """A free ArduPilot instance number and its physics port, bound (the claim)."""
-    for n in range(MAX_INSTANCE + 1):
+def claim_instance(host: str = "127.0.0.1", *, first: int = 0) -> tuple[int, socket.socket]:
+    """A free ArduPilot instance number from ``first`` on and its physics port, bound (the
+    claim)."""
+    for n in range(first, MAX_INSTANCE + 1):
         if _foreign(n):
             continue
         sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -422,7 +428,7 @@ def start_ardupilot(
             instance, physics = 0, _bind_udp(host, SIM_PORT)
         else:
             host = "127.0.0.1"
-            instance, physics = claim_instance(host)
+            instance, physics = claim_instance(host, first=sitl.first_instance)
         listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
         try:
             listener.bind((host, 0))

@@ -34,7 +34,7 @@ from ..geo import Home
 from ..mujoco._config import WorldConfig
 from ..px4._config import Configuration, Geofence
 from ..px4._gcs import GcsSpec, Procedure, ground_station
-from ..px4._simulator import MissionNode
+from ..px4._simulator import MissionNode, needs_images
 from ..rover._messages import MAX_SPEED
 from ._bridge import DOWNLINK, SERVO_TOPIC, TRUTH_TOPIC, UPLINK
 from ._frames import FRAME_RATE, copter_params, rover_params
@@ -379,8 +379,7 @@ class _ArduPilotSimulator:
 
     def add(self, component: Component[ContainerEnvironment, Any]) -> NodeId[Any]:
         """Add another component (an injector, a monitor), stepped before ArduPilot's bridge."""
-        images = getattr(component, "required_images", None)
-        if self.backend != "docker" and callable(images) and images():
+        if self.backend != "docker" and needs_images(component):
             raise ConfigurationError(
                 "component",
                 component,

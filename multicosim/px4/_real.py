@@ -91,7 +91,9 @@ class SITL:
     ``model`` picks the airframe as ``PX4_SIM_MODEL`` does (``none_iris``: the generic quad
     our world simulates). ``params`` are set at boot (``param set`` in ``px4-rc.params``).
     ``start_timeout`` bounds (in wall seconds) PX4's start until it connects to its
-    simulator; ``lockstep_timeout`` a lockstep step once it runs.
+    simulator; ``lockstep_timeout`` a lockstep step once it runs. ``first_instance`` is the
+    lowest instance number a local run claims (the ones below stay free for PX4s started by
+    hand on their usual ports).
     """
 
     binary: str | None = None
@@ -101,6 +103,7 @@ class SITL:
     params: Mapping[str, float] = dataclasses.field(default_factory=dict)
     start_timeout: float = 60.0
     lockstep_timeout: float = 30.0
+    first_instance: int = 0
 
     def __post_init__(self) -> None:
         if self.binary is None and self.image is None:
@@ -139,6 +142,7 @@ class SITL:
             value = getattr(self, field)
             if isinstance(value, bool) or not isinstance(value, int | float) or not value > 0:
                 raise ConfigurationError(field, value, "a positive number of seconds")
+        check_first_instance(self.first_instance, MAX_INSTANCE)
 
     def _check_binary(self) -> None:
         binary = self.binary
@@ -216,13 +220,22 @@ def _udp_free(host: str, port: int) -> bool:
     return True
 
 
-def claim_instance(host: str = "127.0.0.1", *, gcs_link: bool = False) -> tuple[int, socket.socket]:
-    """A free PX4 instance number and its simulator port, bound and listening (the claim).
+def check_first_instance(first: object, most: int) -> None:
+    """Raise ConfigurationError unless ``first`` is an instance number from 0 to ``most``."""
+    if isinstance(first, bool) or not isinstance(first, int) or not 0 <= first <= most:
+        raise ConfigurationError("first_instance", first, f"an instance number from 0 to {most}")
+
+
+def claim_instance(
+    host: str = "127.0.0.1", *, gcs_link: bool = False, first: int = 0
+) -> tuple[int, socket.socket]:
+    """A free PX4 instance number from ``first`` on and its simulator port, bound and
+    listening (the claim).
 
     Binding ``SIM_PORT + N`` is atomic, so two runs never claim the same instance; PX4's
     own UDP ports and lock file for ``N`` are checked free as well.
     """
-    for n in range(MAX_INSTANCE + 1):
+    for n in range(first, MAX_INSTANCE + 1):
         if _lock_held(n):
             continue
         if not _udp_free("127.0.0.1", API_LOCAL_PORT + n):
@@ -480,7 +493,9 @@ def start_sitl(
             instance, server = 0, _listen(host, SIM_PORT)
         else:
             host = "127.0.0.1"
-            instance, server = claim_instance(host, gcs_link=uplink is None)
+            instance, server = claim_instance(
+                host, gcs_link=uplink is None, first=sitl.first_instance
+            )
         bridge_node = ParticipantComponent(
             lambda: HilTcpBridge(
                 topics,

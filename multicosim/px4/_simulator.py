@@ -119,7 +119,7 @@ def _participant_command(factory: str, spec: msgspec.Struct) -> list[str]:
     return [sys.executable, "-m", *_program(factory, spec)]
 
 
-def _needs_images(component: object) -> bool:
+def needs_images(component: object) -> bool:
     """Whether ``component`` runs containers (it names images it needs)."""
     images = getattr(component, "required_images", None)
     return callable(images) and bool(images())
@@ -563,7 +563,7 @@ class PX4:
 
         Any component runs on the docker backend; container components need it.
         """
-        if self.backend != "docker" and _needs_images(component):
+        if self.backend != "docker" and needs_images(component):
             raise ConfigurationError(
                 "component",
                 component,

@@ -17,6 +17,7 @@ from ardupilot_helpers import fake_ardupilot
 import multicosim as mcs
 import multicosim.ardupilot as ardupilot
 import multicosim.attacks as attacks
+import multicosim.px4 as px4
 from multicosim.ardupilot._bridge import MavlinkFramer, json_state
 from multicosim.ardupilot._faults import FaultsConfig, SimulatedFaults
 from multicosim.ardupilot._frames import (
@@ -209,6 +210,18 @@ def test_claimed_instances_skip_ports_in_use() -> None:
     assert second > first
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as again:
         again.bind(("127.0.0.1", SIM_PORT + 10 * first))  # released
+
+
+def test_instances_are_claimed_from_the_first_one_given(tmp_path: Path) -> None:
+    n, sock = claim_instance(first=7)
+    sock.close()
+    assert n >= 7
+    directory = str(fake_ardupilot(tmp_path / "ap"))
+    for bad in (-1, 100, 1.5, True):
+        with pytest.raises(mcs.ConfigurationError, match="first_instance"):
+            ardupilot.SITL(directory=directory, first_instance=bad)
+        with pytest.raises(mcs.ConfigurationError, match="first_instance"):
+            px4.SITL(image="px4:tag", first_instance=bad)
 
 
 # -- attacks as ArduPilot's simulated faults --------------------------------------------------
