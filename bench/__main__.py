@@ -494,8 +494,17 @@ def ardupilot_rows(data: dict[str, Any]) -> list[Row]:
             )
         )
     side = data["side_by_side"]
-    flights = ", ".join(f"{n} {a['flight_s']:.0f} s" for n, a in side["autopilots"].items())
+    autopilots = side["autopilots"].items()
+    flights = ", ".join(f"{n} {a['flight_s']:.0f} s" for n, a in autopilots)
     rows.append(row("same copter mission, three autopilots", "takeoff to landed (medium)", flights))
+    if all("speed_factor" in a for _, a in autopilots):
+        rows.append(
+            row(
+                "same copter mission, three autopilots",
+                "speed, the same run (medium, process)",
+                ", ".join(f"{n} {a['speed_factor']:.0f}x" for n, a in autopilots),
+            )
+        )
     for pair, d in side["paths"].items():
         rows.append(
             row(
@@ -691,13 +700,23 @@ def main(argv: list[str] | None = None) -> int:
         # The other figures are the earlier run's: its machine line stays, and the
         # re-measured benchmarks say when they were measured.
         previous = json.loads((RESULTS / "all.json").read_text())
+        # A benchmark measured alone since (its own results file, not in all.json) joins
+        # with its own run's figures and machine line.
+        alone = {
+            name: json.loads((RESULTS / f"{name}.json").read_text())
+            for name in BENCHMARKS
+            if name not in previous["results"]
+            and name not in results
+            and (RESULTS / f"{name}.json").is_file()
+        }
         remeasured = {
             **previous.get("remeasured", {}),
+            **{name: {"machine": data["machine"]} for name, data in alone.items()},
             **{name: {"machine": host, "elapsed_s": results[name]["elapsed_s"]} for name in names},
         }
         summary = {
             **previous,
-            "results": {**previous["results"], **results},
+            "results": {**previous["results"], **alone, **results},
             "remeasured": remeasured,
         }
     rows = summarize(summary["results"])

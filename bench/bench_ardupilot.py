@@ -9,12 +9,13 @@
    world, and the rest (the bridge, the scheduler, the ground station);
 2. side by side: that copter mission flown by ArduCopter, real PX4 (with a PX4 SITL binary)
    and the built-in autopilot, all at medium fidelity: the time from takeoff to the end of
-   the mission, and the horizontal distance between their true paths (mean and max).
+   the mission, the horizontal distance between their true paths (mean and max), and each
+   one's speed factor in the same run.
 
 Needs ArduPilot's SITL directory: ``--ardupilot-dir DIR`` or ``MCS_ARDUPILOT_DIR``; real PX4
 joins with ``--px4-binary`` or ``MCS_PX4_BINARY``. Without ArduPilot the result says so.
-``--first-instance N`` keeps both SITLs' instance numbers at N and above (beside SITLs
-already running on the low ones).
+``--first-instance N`` (``MCS_FIRST_INSTANCE``) keeps both SITLs' instance numbers at N and
+above (beside SITLs already running on the low ones).
 Usage: ``python bench/bench_ardupilot.py [--quick]``; prints a table and writes
 ``bench/results/ardupilot.json``.
 """
@@ -66,10 +67,11 @@ def fly_ardupilot(
         wall = time.perf_counter() - t0
         frames, waited = bridge.frames, bridge.wait_s
     assert result.completed, result.reason
+    simulated = result.end_time - result.start_time
     return result, {
-        "sim_s": result.end_time,
+        "sim_s": simulated,
         "send_s": wall,
-        "speed_factor": result.end_time / wall,
+        "speed_factor": simulated / wall,
         "frames": frames,
         "target": TARGET,
         "share": {
@@ -80,12 +82,15 @@ def fly_ardupilot(
     }
 
 
-def fly_px4(sitl: px4.SITL | None) -> px4.MissionResult:
-    """The same copter mission on PX4 (real, or the built-in autopilot), medium."""
+def fly_px4(sitl: px4.SITL | None) -> tuple[px4.MissionResult, float]:
+    """The same copter mission on PX4 (real, or the built-in autopilot), medium; its result
+    and speed factor."""
     with px4.PX4(fidelity="medium", firmware=sitl, seed=0).start() as simulation:
+        t0 = time.perf_counter()
         result = simulation.firmware.send(mission())
+        wall = time.perf_counter() - t0
     assert result.completed, result.reason
-    return result
+    return result, (result.end_time - result.start_time) / wall
 
 
 def flight_time(result: px4.MissionResult) -> float:
@@ -98,7 +103,12 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--ardupilot-dir", default=os.environ.get("MCS_ARDUPILOT_DIR"))
     parser.add_argument("--px4-binary", default=os.environ.get("MCS_PX4_BINARY"))
-    parser.add_argument("--first-instance", type=int, default=0, help="lowest SITL instance")
+    parser.add_argument(
+        "--first-instance",
+        type=int,
+        default=int(os.environ.get("MCS_FIRST_INSTANCE", "0")),
+        help="the lowest SITL instance number to claim (MCS_FIRST_INSTANCE)",
+    )
     parser.add_argument("--quick", action="store_true", help="(the same run: it is short)")
     parser.add_argument("--output", type=Path, default=None)
     args = parser.parse_args(argv)
@@ -116,12 +126,18 @@ def main(argv: list[str] | None = None) -> int:
     speed = {"copter": copter_speed, "rover": rover_speed}
 
     # 2. side by side
-    flights: dict[str, px4.MissionResult] = {"ArduCopter": copter, "built-in": fly_px4(None)}
+    flights: dict[str, px4.MissionResult] = {"ArduCopter": copter}
+    speeds = {"ArduCopter": copter_speed["speed_factor"]}
+    flights["built-in"], speeds["built-in"] = fly_px4(None)
     if args.px4_binary:
         px4_sitl = px4.SITL(binary=args.px4_binary, first_instance=args.first_instance)
-        flights["real PX4"] = fly_px4(px4_sitl)
+        flights["real PX4"], speeds["real PX4"] = fly_px4(px4_sitl)
     compared: dict[str, Any] = {
-        name: {"flight_s": flight_time(r), "reached": [w.index for w in r.reached]}
+        name: {
+            "flight_s": flight_time(r),
+            "reached": [w.index for w in r.reached],
+            "speed_factor": speeds[name],
+        }
         for name, r in flights.items()
     }
     names = list(flights)
@@ -140,7 +156,10 @@ def main(argv: list[str] | None = None) -> int:
             f"{sh['ardupilot']:.0%} / {sh['world']:.0%} / {sh['rest']:.0%}"
         )
     for name, c in compared.items():
-        print(f"{name:<12} takeoff to landed {c['flight_s']:.1f} s, waypoints {c['reached']}")
+        print(
+            f"{name:<12} takeoff to landed {c['flight_s']:.1f} s, waypoints {c['reached']}, "
+            f"{c['speed_factor']:.1f}x real time"
+        )
     for pair, d in pairs.items():
         mean, worst = d["mean_distance_m"], d["max_distance_m"]
         print(f"{pair}: path distance mean {mean:.2f} m, max {worst:.2f} m")

@@ -57,6 +57,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "BINARIES",
+    "NO_RC_RECEIVER",
     "SIM_PORT",
     "SITL",
     "ArduPilotNodes",
@@ -76,6 +77,11 @@ SIM_PORT = 9002
 MAVLINK_PORT = 5760  # SERIAL0's TCP port of instance 0, + 10 N (a foreign SITL's sign)
 RC_PORT = 5501  # RC input UDP port of instance 0, + 10 N (a foreign SITL's sign)
 MAX_INSTANCE = 99
+NO_RC_RECEIVER: dict[str, float] = {"RC_OPTIONS": 1, "FS_THR_ENABLE": 0}
+"""ArduPilot ignores its RC receiver (``RC_OPTIONS`` bit 0) and so has no throttle failsafe:
+the ground station flies it. Its simulated receiver is a UDP socket on all interfaces that
+cannot be bound to loopback; whatever reaches it (a stray or hostile packet switching the
+flight mode, say) changes nothing."""
 OVERLAY = "multicosim.parm"
 GUARD = Path(__file__).with_name("_guard.py")
 CONTAINER_DIR = "/opt/ardupilot"

@@ -38,7 +38,14 @@ from ..px4._simulator import MissionNode, needs_images
 from ..rover._messages import MAX_SPEED
 from ._bridge import DOWNLINK, SERVO_TOPIC, TRUTH_TOPIC, UPLINK
 from ._frames import FRAME_RATE, copter_params, rover_params
-from ._launch import SITL, ArduPilotNodes, Vehicle, check_params, start_ardupilot
+from ._launch import (
+    NO_RC_RECEIVER,
+    SITL,
+    ArduPilotNodes,
+    Vehicle,
+    check_params,
+    start_ardupilot,
+)
 
 if TYPE_CHECKING:
     from ..docker import ContainerEnvironment, ContainerSimulator
@@ -189,14 +196,15 @@ class ArduPilotComponent:
         return (self.firmware.image,) if self.firmware.image is not None else ()
 
     def boot_params(self) -> dict[str, float]:
-        """The parameters ArduPilot boots with: the frame's, then ``params``, the firmware's."""
+        """The parameters ArduPilot boots with: no RC receiver (``NO_RC_RECEIVER``), the
+        frame's, then ``params``, the firmware's."""
         if self.vehicle == "copter":
             from ..px4._airframe import NONE_IRIS
 
             frame = copter_params(NONE_IRIS)
         else:
             frame = rover_params(MAX_SPEED)
-        return {**frame, **self.params, **self.firmware.params}
+        return {**NO_RC_RECEIVER, **frame, **self.params, **self.firmware.params}
 
     def procedure(self) -> Procedure:
         """How the ground station flies this vehicle."""

@@ -6,9 +6,12 @@ CI gives ../shared/ardupilot-sitl) and skip with the reason where none is config
 
 from __future__ import annotations
 
+import itertools
 import math
 import os
 import signal
+import socket
+import struct
 from pathlib import Path
 from typing import Any
 
@@ -86,7 +89,9 @@ def test_arducopter_listens_on_no_port_and_stops_cleanly(ardupilot_dir: str) -> 
     simulator = ardupilot.Copter(fidelity="medium", firmware_dir=ardupilot_dir)
     simulation = simulator.start()
     try:
-        simulation.advance(2.0)
+        # Past ArduCopter's setup (it waits 2 s for the RC input it ignores): from there on it
+        # handles SIGTERM, finishing its log.
+        simulation.advance(5.0)
         autopilot = simulation.firmware._autopilot
         pid, instance = autopilot.process.pid, simulation.firmware.instance
         assert listening(pid) == []
@@ -100,6 +105,42 @@ def test_arducopter_listens_on_no_port_and_stops_cleanly(ardupilot_dir: str) -> 
     assert autopilot.process.poll() == 0, "ArduCopter did not exit on SIGTERM"
     with pytest.raises(ProcessLookupError):
         os.kill(pid, 0)
+
+
+def test_rc_input_from_anyone_changes_nothing(ardupilot_dir: str) -> None:
+    # ArduPilot's simulated RC receiver is a UDP socket on all interfaces. Anyone may send
+    # it channels: here flight mode switch low (CIRCLE in ArduCopter's defaults), throttle
+    # up, sticks over, from before arming to the landing, to every UDP socket it holds.
+    simulator = ardupilot.Copter(fidelity="medium", firmware_dir=ardupilot_dir)
+    target: dict[str, list[int]] = {}
+    sent = []
+    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+
+    class Hostile:
+        period = 0.02
+
+        def setup(self, ctx: Any) -> None:
+            pass
+
+        def step(self, ctx: Any) -> None:
+            if ctx.time >= 30.0:
+                channels = [1900, 1100, 1800, 1900, 1000, 1000, 2000, 2000] + [1500] * 8
+                for port in target.get("ports", []):
+                    sock.sendto(struct.pack("<16H", *channels), ("127.0.0.1", port))
+                    sent.append(port)
+
+    simulator.add(mcs.ParticipantComponent(Hostile, "hostile"))
+    with sock, simulator.start() as simulation:
+        pid = simulation.firmware._autopilot.process.pid
+        target["ports"] = sorted(p for proto, p in process_ports(pid) if proto == "udp")
+        result = simulation.firmware.send(short_flight(simulation.home))
+    assert len(target["ports"]) >= 2
+    assert set(sent) == set(target["ports"])
+    assert result.completed, result.reason
+    assert [r.index for r in result.reached] == [0]
+    modes = [m for m, _ in itertools.groupby(s.mode for s in result.trajectory if s.armed)]
+    assert modes == ["GUIDED", "AUTO"]
+    assert not [m for m in result.messages if m.startswith("RC")]
 
 
 def test_two_arducopters_fly_side_by_side(ardupilot_dir: str) -> None:
