@@ -216,6 +216,12 @@ def test_instances_are_claimed_from_the_first_one_given(tmp_path: Path) -> None:
     n, sock = claim_instance(first=7)
     sock.close()
     assert n >= 7
+    # The last instance's physics port in use: no instance is left from there, and the
+    # error names the ports.
+    last, held = claim_instance(first=99)
+    with held, pytest.raises(mcs.NodeStartError, match=r"no free ArduPilot instance: UDP ports"):
+        claim_instance(first=99)
+    assert last == 99
     directory = str(fake_ardupilot(tmp_path / "ap"))
     for bad in (-1, 100, 1.5, True):
         with pytest.raises(mcs.ConfigurationError, match="first_instance"):

@@ -149,8 +149,15 @@ def test_two_arducopters_fly_side_by_side(ardupilot_dir: str) -> None:
         ardupilot.Copter(fidelity="medium", firmware_dir=ardupilot_dir, seed=2).start() as two,
     ):
         instances = {one.firmware.instance, two.firmware.instance}
+        workdirs = {sim.firmware._autopilot.rootfs for sim in (one, two)}
         results = [sim.firmware.send(short_flight(sim.home)) for sim in (one, two)]
+        # Each wrote its parameters and its log in its own working directory.
+        for workdir in workdirs:
+            assert workdir is not None
+            assert (workdir / "eeprom.bin").is_file()
+            assert list((workdir / "logs").glob("*.BIN"))
     assert len(instances) == 2
+    assert len(workdirs) == 2
     for result in results:
         assert result.completed, result.reason
 
