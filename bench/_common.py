@@ -7,6 +7,7 @@ import math
 import os
 import platform
 import sys
+import time
 from pathlib import Path
 from typing import Any
 
@@ -105,3 +106,17 @@ def docker_reason() -> str | None:
 
 if __name__ == "__main__":  # pragma: no cover
     json.dump(machine(), sys.stdout, indent=2)
+
+
+def time_steps(participant: Any) -> dict[str, float]:
+    """Time ``participant``'s steps from now on: ``{"world_s": seconds}``, kept up to date."""
+    spent = {"world_s": 0.0}
+    step = participant.step
+
+    def timed(ctx: Any) -> None:
+        t = time.perf_counter()
+        step(ctx)
+        spent["world_s"] += time.perf_counter() - t
+
+    participant.step = timed
+    return spent

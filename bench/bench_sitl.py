@@ -27,7 +27,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from _common import write_result
+from _common import time_steps, write_result
 from bench_px4 import PROJ, mission
 
 import multicosim.px4 as px4
@@ -55,16 +55,7 @@ def fly(
     simulator = px4.PX4(fidelity=fidelity, firmware=sitl, seed=0)  # type: ignore[arg-type]
     with simulator.start() as simulation:
         world = simulation.world.participant if sitl is not None else None  # type: ignore[attr-defined]
-        spent = {"world_s": 0.0}
-        if world is not None:
-            step = world.step
-
-            def timed(ctx: Any) -> None:
-                t = time.perf_counter()
-                step(ctx)
-                spent["world_s"] += time.perf_counter() - t
-
-            world.step = timed
+        spent = time_steps(world) if world is not None else {"world_s": 0.0}
         t0 = time.perf_counter()
         result = simulation.firmware.send(config)
         wall = time.perf_counter() - t0

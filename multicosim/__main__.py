@@ -6,6 +6,7 @@
 ``multicosim images build``                      build the container images locally
 ``multicosim plot TRACE.mcap``                   plot a trace to a PNG
 ``multicosim px4 sitl``                          PX4-compatible SITL on PX4's UDP ports
+``multicosim ardupilot launch``                  (in the ArduPilot image) start ArduPilot
 """
 
 from __future__ import annotations
@@ -92,6 +93,7 @@ def _images_build(args: argparse.Namespace) -> int:
         force=args.force,
         progress=print if args.verbose else None,
         px4_dir=args.px4_dir,
+        ardupilot_dir=args.ardupilot_dir,
     )
     for tag in tags:
         print(tag)
@@ -113,6 +115,10 @@ def main(argv: list[str] | None = None) -> int:
         from .px4.__main__ import main as px4_main
 
         return px4_main(argv[1:])
+    if argv[:1] == ["ardupilot"]:
+        from .ardupilot.__main__ import main as ardupilot_main
+
+        return ardupilot_main(argv[1:])
     parser = argparse.ArgumentParser(prog="multicosim", description=__doc__.splitlines()[0])
     parser.add_argument("-v", "--verbose", action="store_true", help="log debug messages")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -136,6 +142,7 @@ def main(argv: list[str] | None = None) -> int:
     p.set_defaults(run=_sweep)
 
     sub.add_parser("px4", help="PX4 tools: `multicosim px4 sitl` runs a standalone SITL")
+    sub.add_parser("ardupilot", help="ArduPilot tools: `multicosim ardupilot launch` (its image)")
 
     p = sub.add_parser("plot", help="plot a trace: planned vs flown path, altitude, robustness")
     p.add_argument("trace", help="an MCAP trace written by multicosim")
@@ -157,6 +164,12 @@ def main(argv: list[str] | None = None) -> int:
         "--px4-dir",
         default=None,
         help="also build the real-PX4 image from this PX4 SITL directory (bin/px4 and etc/)",
+    )
+    p.add_argument(
+        "--ardupilot-dir",
+        default=None,
+        help="also build the ArduPilot image from this ArduPilot SITL directory "
+        "(bin/arducopter, bin/ardurover, params/)",
     )
     p.set_defaults(run=_images_build)
 

@@ -86,11 +86,12 @@ class LocalProjection:
         """Latitude and longitude (degrees) of the point ``north, east`` (m) from the reference."""
         x, y = north / EARTH_RADIUS, east / EARTH_RADIUS
         c = math.sqrt(x * x + y * y)
-        if c < 1e-12:
+        if c == 0.0:
             return self.lat, self.lon
-        sin_c, cos_c = math.sin(c), math.cos(c)
-        lat = math.asin(cos_c * self._sin0 + x * sin_c * self._cos0 / c)
-        lon = self._lon0 + math.atan2(y * sin_c, c * self._cos0 * cos_c - x * self._sin0 * sin_c)
+        # sin(c)/c is exact down to the smallest c: micrometres from home are not home.
+        cos_c, sinc = math.cos(c), math.sin(c) / c
+        lat = math.asin(cos_c * self._sin0 + x * sinc * self._cos0)
+        lon = self._lon0 + math.atan2(y * sinc, self._cos0 * cos_c - x * self._sin0 * sinc)
         return math.degrees(lat), math.degrees(lon)
 
 

@@ -2,7 +2,9 @@
 
 ``gps_noise`` is a factory: each call puts a sensor injector into the PX4 or rover simulator
 of the test (whichever of ``px4_simulator`` and ``rover_simulator`` it uses), between the
-world and the firmware, at the test's fidelity and backend::
+world and the firmware, at the test's fidelity and backend; on the ArduPilot simulators
+(``ardupilot_copter_simulator``, ``ardupilot_rover_simulator``) the same models become
+ArduPilot's own simulated sensor faults::
 
     @pytest.mark.fidelity("low", "medium")
     def test_spoof(px4_simulator, gps_noise):
@@ -26,11 +28,17 @@ from typing import TYPE_CHECKING, Any
 import pytest
 
 if TYPE_CHECKING:
+    from multicosim.ardupilot._faults import FaultsComponent
     from multicosim.attacks import InjectorComponent, Model
 
 __all__ = ["GpsNoise", "gps_noise"]
 
-SCENARIOS = ("px4_simulator", "rover_simulator")
+SCENARIOS = (
+    "px4_simulator",
+    "rover_simulator",
+    "ardupilot_copter_simulator",
+    "ardupilot_rover_simulator",
+)
 Vector = float | Sequence[float]
 
 
@@ -39,7 +47,7 @@ class GpsNoise:
 
     def __init__(self, request: pytest.FixtureRequest) -> None:
         self._request = request
-        self.injectors: list[InjectorComponent] = []
+        self.injectors: list[InjectorComponent | FaultsComponent] = []
 
     def _simulator(self) -> Any:
         used = [name for name in SCENARIOS if name in self._request.fixturenames]
@@ -49,7 +57,7 @@ class GpsNoise:
             raise ConfigurationError(
                 "gps_noise",
                 used,
-                "a test that uses exactly one of the px4_simulator and rover_simulator fixtures",
+                f"a test that uses exactly one of the fixtures {', '.join(SCENARIOS)}",
             )
         return self._request.getfixturevalue(used[0])
 
@@ -70,7 +78,7 @@ class GpsNoise:
         sensor: str = "gps",
         on: str | None = None,
         models: Sequence[Model] = (),
-    ) -> InjectorComponent:
+    ) -> InjectorComponent | FaultsComponent:
         """Add an injector with these models; returns the added component."""
         from multicosim import attacks
 
@@ -89,7 +97,9 @@ class GpsNoise:
             built.append(attacks.Dropout(**window))
         if delay is not None:
             built.append(attacks.Delay(delay=delay, **window))
-        component = attacks.inject(self._simulator(), sensor, [*built, *models])
+        component: InjectorComponent | FaultsComponent = attacks.inject(
+            self._simulator(), sensor, [*built, *models]
+        )
         self.injectors.append(component)
         return component
 

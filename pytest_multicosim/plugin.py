@@ -49,6 +49,7 @@ _ARTIFACTS_DEFAULT = "mcs-artifacts"
 FIXTURE_LIBRARIES = (
     "pytest_multicosim.rover",
     "pytest_multicosim.px4",
+    "pytest_multicosim.ardupilot",
     "pytest_multicosim.gps_noise",
 )
 
@@ -148,6 +149,13 @@ def pytest_addoption(parser: pytest.Parser) -> None:
         "build/px4_sitl_default/bin/px4; env MCS_PX4_BINARY)",
     )
     group.addoption(
+        "--mcs-ardupilot-dir",
+        dest="mcs_ardupilot_dir",
+        default=None,
+        help="fly real ArduPilot on the ArduPilot fixtures: its SITL directory (bin/arducopter, "
+        "bin/ardurover, params/; env MCS_ARDUPILOT_DIR)",
+    )
+    group.addoption(
         "--mcs-ray",
         dest="mcs_ray",
         default=None,
@@ -161,6 +169,7 @@ def pytest_addoption(parser: pytest.Parser) -> None:
     parser.addini("mcs_keep_traces", "default for --mcs-keep-traces", default="failed")
     parser.addini("mcs_px4_image", "default for --mcs-px4-image", default="")
     parser.addini("mcs_px4_binary", "default for --mcs-px4-binary", default="")
+    parser.addini("mcs_ardupilot_dir", "default for --mcs-ardupilot-dir", default="")
     parser.addini("mcs_ray", "default for --mcs-ray", default="")
 
 
@@ -805,6 +814,12 @@ def _properties(item: pytest.Item, settings: Settings, replay: str, saved: list[
     item.user_properties.extend(p for p in found if p not in item.user_properties)
 
 
+_FLIGHT_LOG_VIEWERS = {
+    ".ulg": "(ULog: open it in PX4's Flight Review)",
+    ".BIN": "(DataFlash log: open it in MAVExplorer or UAV Log Viewer)",
+}
+
+
 def _save_logs(view: _TestSimulations, dest: Path) -> dict[str, tuple[Path, str]]:
     saved: dict[str, tuple[Path, str]] = {}
     for sim in view.simulations:
@@ -824,7 +839,8 @@ def _save_logs(view: _TestSimulations, dest: Path) -> dict[str, tuple[Path, str]
             except OSError:
                 continue
             saved[name] = (target, tail)
-        # Real PX4's ULog files (binary: copied, not shown), for PX4's Flight Review.
+        # Real firmware's flight logs (binary: copied, not shown): PX4's ULog files, for its
+        # Flight Review; ArduPilot's DataFlash logs, for MAVExplorer or UAV Log Viewer.
         flight_logs = getattr(sim, "flight_logs", None)
         try:
             ulogs = flight_logs() if flight_logs is not None else []
@@ -835,8 +851,6 @@ def _save_logs(view: _TestSimulations, dest: Path) -> dict[str, tuple[Path, str]
                 dest.mkdir(parents=True, exist_ok=True)
                 target = dest / path.name
                 shutil.copyfile(path, target)
-                saved[f"flight log {path.name}"] = (
-                    target,
-                    "(ULog: open it in PX4's Flight Review)",
-                )
+                viewer = _FLIGHT_LOG_VIEWERS.get(path.suffix, "(a flight log)")
+                saved[f"flight log {path.name}"] = (target, viewer)
     return saved

@@ -75,6 +75,17 @@ def test_real_px4_listing_runs(px4_sitl: RealPX4) -> None:
     assert [r.index for r in result.reached] == [0]
 
 
+def test_ardupilot_listing_runs(ardupilot_dir: str) -> None:
+    code = _block("ardupilot.Copter(").replace('"../shared/ardupilot-sitl"', repr(ardupilot_dir))
+    namespace: dict[str, Any] = {}
+    exec(compile(code, "README block with ardupilot.Copter", "exec"), namespace)
+    result = namespace["result"]
+    assert result.completed, result.reason
+    assert result.firmware_version == "4.5.6"
+    assert [r.index for r in result.reached] == [0]
+    assert result.landed  # home again: the mission ended with a return to launch
+
+
 def test_rover_listings_run() -> None:
     namespace = _run("rover.Rover(fidelity=")
     assert namespace["trajectory"].completed  # the hand-built medium-fidelity run

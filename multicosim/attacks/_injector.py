@@ -25,7 +25,7 @@ from .._clock import NS
 from .._errors import ConfigurationError
 from .._interfaces import Node
 from .._local import LocalEnvironment, ParticipantComponent, ProcessComponent, config_json
-from ._models import MODEL_TYPES, Additive, Delay, Dropout, Model, Offsets, broadcast
+from ._models import Additive, Delay, Dropout, Model, Offsets, check_models
 from ._sensors import Sensor, Vehicle, Wire, canonical, sensor
 
 if TYPE_CHECKING:
@@ -83,29 +83,14 @@ class InjectorConfig(msgspec.Struct, frozen=True, kw_only=True):
             raise ConfigurationError("wire", self.wire, f"one of {WIRES}")
         if self.wire == "mavlink" and self.vehicle != "px4":
             raise ConfigurationError("wire", self.wire, f"'native' for the {self.vehicle}")
-        models: object = self.models
-        if isinstance(models, list):
-            models = tuple(models)
-            msgspec.structs.force_setattr(self, "models", models)
-        if not isinstance(models, tuple):
-            raise ConfigurationError("models", models, "a sequence of attack models")
         spec = self.spec
-        for i, model in enumerate(self.models):
-            if not isinstance(model, MODEL_TYPES):
-                names = ", ".join(t.__name__ for t in MODEL_TYPES)
-                raise ConfigurationError(f"models[{i}]", model, f"one of {names}")
-            if isinstance(model, Additive):
-                quantity = model.on or spec.default
-                if quantity not in spec.quantities:
-                    raise ConfigurationError(
-                        f"models[{i}].on",
-                        model.on,
-                        f"a quantity of the {self.vehicle} {self.sensor} "
-                        f"({spec.message.__name__}): one of {tuple(spec.quantities)}",
-                    )
-                size = spec.quantities[quantity].size
-                for field, values in model.vectors().items():
-                    broadcast(f"models[{i}].{field}", values, size, quantity)
+        models = check_models(
+            self.models,
+            {name: q.size for name, q in spec.quantities.items()},
+            spec.default,
+            f"the {self.vehicle} {self.sensor} ({spec.message.__name__})",
+        )
+        msgspec.structs.force_setattr(self, "models", models)
 
     @property
     def spec(self) -> Sensor:

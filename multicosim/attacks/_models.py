@@ -13,7 +13,7 @@ so a seed gives the same corrupted readings every time.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Union
 
 import msgspec
@@ -189,6 +189,35 @@ def is_zero(model: Model) -> bool:
     if isinstance(model, Delay):
         return model.delay == 0.0
     return all(v == 0.0 for vector in model.vectors().values() for v in vector)
+
+
+def check_models(
+    models: object, quantities: Mapping[str, int], default: str, what: str
+) -> tuple[Model, ...]:
+    """``models`` as a tuple; ConfigurationError naming the first one that does not fit.
+
+    ``quantities`` maps each quantity an additive model may act on (``on``, else
+    ``default``) to its number of axes; ``what`` names the sensor in errors.
+    """
+    if isinstance(models, list):
+        models = tuple(models)
+    if not isinstance(models, tuple):
+        raise ConfigurationError("models", models, "a sequence of attack models")
+    for i, model in enumerate(models):
+        if not isinstance(model, MODEL_TYPES):
+            names = ", ".join(t.__name__ for t in MODEL_TYPES)
+            raise ConfigurationError(f"models[{i}]", model, f"one of {names}")
+        if isinstance(model, Additive):
+            quantity = model.on or default
+            if quantity not in quantities:
+                raise ConfigurationError(
+                    f"models[{i}].on",
+                    model.on,
+                    f"a quantity of {what}: one of {tuple(quantities)}",
+                )
+            for field, values in model.vectors().items():
+                broadcast(f"models[{i}].{field}", values, quantities[quantity], quantity)
+    return models
 
 
 def broadcast(field: str, values: Sequence[float], size: int, quantity: str) -> tuple[float, ...]:

@@ -16,14 +16,14 @@ and the injector republishes on the topic the controller reads; PX4's autopilot 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, Protocol, overload
 
 from .._errors import ConfigurationError, MulticosimError
 from ._injector import InjectorComponent, InjectorConfig
 from ._models import Model
 from ._sensors import Vehicle, canonical
 
-__all__ = ["inject", "vehicle_of"]
+__all__ = ["SimulatesFaults", "inject", "vehicle_of"]
 
 
 def _unwrap(simulator: object) -> object:
@@ -48,21 +48,41 @@ def vehicle_of(simulator: object) -> Vehicle:
     )
 
 
+class SimulatesFaults(Protocol):
+    """A scenario whose firmware simulates sensor faults itself (ArduPilot's SITL)."""
+
+    def inject_faults(self, sensor: str, models: Sequence[Model], *, name: str | None) -> Any:
+        """Map ``models`` onto the firmware's own faults of ``sensor``; the component added."""
+        ...
+
+
+@overload
+def inject(
+    simulator: SimulatesFaults, sensor: str, models: Sequence[Model], *, name: str | None = None
+) -> Any: ...
+@overload
+def inject(
+    simulator: Any, sensor: str, models: Sequence[Model], *, name: str | None = None
+) -> InjectorComponent: ...
 def inject(
     simulator: Any,
     sensor: str,
     models: Sequence[Model],
     *,
     name: str | None = None,
-) -> InjectorComponent:
+) -> Any:
     """Put an injector with ``models`` on ``sensor`` of the scenario ``simulator``.
 
     Returns the component that was added (its ``config`` says which topics it joins). Raises
     ConfigurationError for an unknown sensor, a model that does not fit the sensor's
-    message, or a sensor that already has an injector.
+    message, or a sensor that already has an injector. A scenario whose firmware simulates
+    its sensors' faults itself (ArduPilot) gets the models mapped onto those instead.
     """
-    vehicle = vehicle_of(simulator)
     inner: Any = _unwrap(simulator)
+    faults = getattr(inner, "inject_faults", None)
+    if callable(faults):
+        return faults(sensor, models, name=name)
+    vehicle = vehicle_of(simulator)
     sensor = canonical(vehicle, sensor)
     name = name or f"{sensor}-injector"
     if vehicle == "rover":

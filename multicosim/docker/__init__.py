@@ -25,7 +25,9 @@ _LAZY = {
     "BASE_IMAGE": "._images",
     "RUNTIME_IMAGE": "._images",
     "PX4_IMAGE": "._images",
+    "ARDUPILOT_IMAGE": "._images",
     "build_px4": "._images",
+    "build_ardupilot": "._images",
     "build_images": "._images",
     "SweepReport": "._sweep",
     "engine_available": "._sweep",
@@ -34,6 +36,7 @@ _LAZY = {
 _RENAMED = {"build_images": "build"}
 
 __all__ = [
+    "ARDUPILOT_IMAGE",
     "BASE_IMAGE",
     "PX4_IMAGE",
     "RUNTIME_IMAGE",
@@ -50,6 +53,7 @@ __all__ = [
     "FirmwareComponent",
     "ImageMissingError",
     "SweepReport",
+    "build_ardupilot",
     "build_images",
     "build_px4",
     "engine_available",
@@ -67,10 +71,12 @@ if TYPE_CHECKING:
     from ._components import FirmwareComponent as FirmwareComponent
     from ._engine import EngineUnavailableError as EngineUnavailableError
     from ._engine import ImageMissingError as ImageMissingError
+    from ._images import ARDUPILOT_IMAGE as ARDUPILOT_IMAGE
     from ._images import BASE_IMAGE as BASE_IMAGE
     from ._images import PX4_IMAGE as PX4_IMAGE
     from ._images import RUNTIME_IMAGE as RUNTIME_IMAGE
     from ._images import build as build_images
+    from ._images import build_ardupilot as build_ardupilot
     from ._images import build_px4 as build_px4
     from ._simulator import ContainerSimulation as ContainerSimulation
     from ._simulator import ContainerSimulator as ContainerSimulator

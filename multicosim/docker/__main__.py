@@ -21,6 +21,11 @@ def main(argv: list[str] | None = None) -> int:
         "--px4-dir",
         help="also build the real-PX4 image from this PX4 SITL directory (bin/px4 and etc/)",
     )
+    p.add_argument(
+        "--ardupilot-dir",
+        help="also build the ArduPilot image from this ArduPilot SITL directory "
+        "(bin/arducopter, bin/ardurover, params/)",
+    )
     sub.add_parser("sweep", help="remove containers and networks of runs whose host is gone")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s", stream=sys.stderr)
@@ -29,7 +34,13 @@ def main(argv: list[str] | None = None) -> int:
         from ._images import build
 
         progress = (lambda line: print(line, file=sys.stderr)) if args.verbose else None
-        for tag in build(base=args.base, force=args.force, progress=progress, px4_dir=args.px4_dir):
+        for tag in build(
+            base=args.base,
+            force=args.force,
+            progress=progress,
+            px4_dir=args.px4_dir,
+            ardupilot_dir=args.ardupilot_dir,
+        ):
             print(tag)
         return 0
     from ._sweep import sweep

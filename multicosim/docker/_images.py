@@ -27,10 +27,12 @@ from .._errors import MulticosimError
 from ._engine import ImageNotFound, client
 
 __all__ = [
+    "ARDUPILOT_IMAGE",
     "BASE_IMAGE",
     "PX4_IMAGE",
     "RUNTIME_IMAGE",
     "build",
+    "build_ardupilot",
     "build_base",
     "build_px4",
     "build_runtime",
@@ -44,6 +46,9 @@ RUNTIME_IMAGE = f"multicosim/runtime:{__version__}"
 
 PX4_IMAGE = f"multicosim/px4-sitl:{__version__}"
 """The real-PX4 image: the runtime image with a PX4 SITL directory (``build_px4``)."""
+
+ARDUPILOT_IMAGE = f"multicosim/ardupilot-sitl:{__version__}"
+"""The ArduPilot image: the runtime image with an ArduPilot SITL directory (``build_ardupilot``)."""
 
 BASE_IMAGE = "multicosim/base:bookworm"
 """The base image made from Debian's archive when no Python base image is present."""
@@ -285,23 +290,70 @@ def build_px4(
     directory inside it) with the directory's ``bin`` and ``etc`` copied to /opt/px4; no
     registry is contacted. Skipped when its inputs did not change, unless ``force``.
     """
-    root = Path(px4_dir)
-    missing = [p for p in ("bin/px4", "etc/init.d-posix/rcS") if not (root / p).is_file()]
+    return _build_firmware(
+        "px4",
+        px4_dir,
+        required=("bin/px4", "etc/init.d-posix/rcS"),
+        parts=("bin", "etc"),
+        what="a PX4 SITL directory (a px4_sitl_default build or bundle with bin/px4 and etc/)",
+        tag=tag,
+        force=force,
+        progress=progress,
+    )
+
+
+def build_ardupilot(
+    ardupilot_dir: str | os.PathLike[str],
+    *,
+    tag: str = ARDUPILOT_IMAGE,
+    force: bool = False,
+    progress: Callable[[str], None] | None = None,
+) -> str:
+    """Build the ArduPilot image from an ArduPilot SITL directory; its tag.
+
+    The directory holds ``bin/arducopter``, ``bin/ardurover`` and ``params/`` (ArduPilot's
+    default parameter files); the image is the runtime image (``multicosim ardupilot
+    launch`` writes the run's parameters and starts ArduPilot) with them in /opt/ardupilot.
+    No registry is contacted. Skipped when its inputs did not change, unless ``force``.
+    """
+    return _build_firmware(
+        "ardupilot",
+        ardupilot_dir,
+        required=("bin/arducopter", "bin/ardurover", "params/copter.parm", "params/rover.parm"),
+        parts=("bin", "params"),
+        what="an ArduPilot SITL directory (bin/arducopter, bin/ardurover, params/)",
+        tag=tag,
+        force=force,
+        progress=progress,
+    )
+
+
+def _build_firmware(
+    name: str,
+    directory: str | os.PathLike[str],
+    *,
+    required: tuple[str, ...],
+    parts: tuple[str, ...],
+    what: str,
+    tag: str,
+    force: bool,
+    progress: Callable[[str], None] | None,
+) -> str:
+    """Build ``images/<name>`` on the runtime image with ``parts`` of ``directory``."""
+    root = Path(directory)
+    missing = [p for p in required if not (root / p).is_file()]
     if missing:
-        raise MulticosimError(
-            f"{root} is not a PX4 SITL directory: {', '.join(missing)} missing "
-            "(expected a px4_sitl_default build or bundle with bin/px4 and etc/)"
-        )
+        raise MulticosimError(f"{root} is not {what}: {', '.join(missing)} missing")
     runtime = build(force=False, progress=progress)[0]
-    with open(_BUILD_LOCK, "w") as lock, tempfile.TemporaryDirectory(prefix="mcs-px4-") as tmp:
+    with open(_BUILD_LOCK, "w") as lock, tempfile.TemporaryDirectory(prefix=f"mcs-{name}-") as tmp:
         fcntl.flock(lock, fcntl.LOCK_EX)
         context = Path(tmp)
-        shutil.copy(_repo_root() / "images" / "px4" / "Dockerfile", context / "Dockerfile")
-        for part in ("bin", "etc"):
-            shutil.copytree(root / part, context / "px4" / part, symlinks=True)
+        shutil.copy(_repo_root() / "images" / name / "Dockerfile", context / "Dockerfile")
+        for part in parts:
+            shutil.copytree(root / part, context / name / part, symlinks=True)
         for extra in ("LICENSE", "COPYING.txt"):
             if (root / extra).is_file():
-                shutil.copy(root / extra, context / "px4" / extra)
+                shutil.copy(root / extra, context / name / extra)
         return _build_context(context, base=runtime, tag=tag, force=force, progress=progress)
 
 
@@ -311,12 +363,14 @@ def build(
     force: bool = False,
     progress: Callable[[str], None] | None = None,
     px4_dir: str | os.PathLike[str] | None = None,
+    ardupilot_dir: str | os.PathLike[str] | None = None,
 ) -> list[str]:
     """Build every multicosim image locally; return their tags.
 
     ``base``: the base image to build on (default: python:3.11-slim if present locally, else
     multicosim's Debian base, made with debootstrap if missing). ``px4_dir``: also build the
-    real-PX4 image from that PX4 SITL directory (``build_px4``).
+    real-PX4 image from that PX4 SITL directory (``build_px4``); ``ardupilot_dir``: also build
+    the ArduPilot image from that ArduPilot SITL directory (``build_ardupilot``).
     """
     api = client().api
     # Parallel test workers (xdist) all ask for the images: build them once, in turn.
@@ -325,6 +379,8 @@ def build(
         tags = _build_locked(api, base, force, progress)
     if px4_dir is not None:
         tags.append(build_px4(px4_dir, force=force, progress=progress))
+    if ardupilot_dir is not None:
+        tags.append(build_ardupilot(ardupilot_dir, force=force, progress=progress))
     return tags
 
 

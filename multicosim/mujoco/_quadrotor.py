@@ -5,7 +5,8 @@ process. It reads HIL_ACTUATOR_CONTROLS (four motor outputs in [0, 1] while arme
 publishes PX4's sensor messages through :class:`~multicosim.px4._sensors.HilSensors`.
 
 MuJoCo's frames are east-north-up (world) and forward-left-up (body); PX4's are
-north-east-down and forward-right-down. The conversion happens here, once per period.
+north-east-down and forward-right-down: :func:`~multicosim.mujoco._frames.ned_state`
+converts the vehicle's state once per period.
 """
 
 from __future__ import annotations
@@ -15,7 +16,6 @@ from typing import TYPE_CHECKING, Any
 
 import mujoco
 
-from ..geo import swap_attitude_frames
 from ..px4._airframe import NONE_IRIS, Airframe
 from ..px4._config import SENSORS, Topics
 from ..px4._hil import (
@@ -27,6 +27,7 @@ from ..px4._hil import (
     read,
 )
 from ..px4._sensors import HilSensors
+from ._frames import NedState, ned_state
 from ._world import Physics
 
 if TYPE_CHECKING:
@@ -83,16 +84,17 @@ class QuadrotorVehicle:
         """Publish PX4's sensor messages for the state reached."""
         hil = self._hil
         assert hil is not None, "setup() was not called"
+        hil.publish(ctx, *self.state(physics))
+
+    def state(self, physics: Physics) -> NedState:
+        """The vehicle's true state now, in NED/FRD (from MuJoCo's ENU/FLU)."""
         d = physics.data
-        x, y, z, qw, qx, qy, qz = d.qpos.tolist()
-        vx, vy, vz = d.qvel[:3].tolist()
-        a = self._accel.tolist()
-        gyro = self._gyro.tolist()
-        hil.publish(
-            ctx,
-            (y, x, self.airframe.ground_offset - z),
-            (vy, vx, -vz),
-            swap_attitude_frames((qw, qx, qy, qz)),
-            (a[0], -a[1], -a[2]),
-            (gyro[0], -gyro[1], -gyro[2]),
+        qpos = d.qpos.tolist()
+        return ned_state(
+            qpos[:3],
+            d.qvel[:3].tolist(),
+            qpos[3:7],
+            self._accel.tolist(),
+            self._gyro.tolist(),
+            self.airframe.ground_offset,
         )

@@ -73,9 +73,13 @@ class RoverVehicle:
         command = self._command.latest
         if command is None:
             return
-        steering = max(-MAX_STEERING, min(MAX_STEERING, command.steering))
+        self.drive(physics, command.speed, command.steering)
+
+    def drive(self, physics: Physics, speed: float, steering: float) -> None:
+        """Set the wheels for ground ``speed`` (m/s) and bicycle ``steering`` (rad, + left)."""
+        steering = max(-MAX_STEERING, min(MAX_STEERING, steering))
         ctrl = physics.data.ctrl
-        for index, value in zip(self._ctrl, ackermann(command.speed, steering), strict=True):
+        for index, value in zip(self._ctrl, ackermann(speed, steering), strict=True):
             ctrl[index] = value
 
     def sense(self, physics: Physics, ctx: StepContext) -> None:

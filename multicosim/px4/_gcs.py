@@ -4,12 +4,17 @@ It is a firmware (it drives the simulated clock while a mission flies) that talk
 to the autopilot over the uplink/downlink topics exactly as QGroundControl or MAVSDK talk to
 PX4 over UDP: parameter protocol to set speeds and acceptance radius, mission protocol to
 upload the plan, COMMAND_LONG to arm and start, telemetry to record the trajectory.
+
+The protocols are MAVLink's and shared by every autopilot; what differs between autopilots
+(flight modes, parameter names, the mission's layout, the arming and start sequence, when a
+mission counts as done) is a :class:`Procedure`: :class:`PX4Procedure` here, ArduPilot's in
+:mod:`multicosim.ardupilot._gcs`.
 """
 
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, Literal
 
 import msgspec
 
@@ -18,7 +23,14 @@ from ._config import Configuration, MissionResult, Sample, WaypointReached
 from ._hil import MavlinkPacket, Truth
 from ._mav import decode_frames, mode_label, new_link
 
-__all__ = ["GcsSpec", "GroundStation", "ground_station"]
+__all__ = [
+    "GcsSpec",
+    "GroundStation",
+    "MissionFailed",
+    "PX4Procedure",
+    "Procedure",
+    "ground_station",
+]
 
 MAV_TYPE_GCS, MAV_AUTOPILOT_INVALID = 6, 8
 FRAME_MISSION, FRAME_GLOBAL_REL_INT = 2, 6
@@ -31,7 +43,11 @@ SEV_CRITICAL = 2
 
 
 class GcsSpec(msgspec.Struct, frozen=True, kw_only=True):
-    """Where the ground station finds the autopilot's link and the world's truth."""
+    """Where the ground station finds the autopilot's link and the world's truth.
+
+    ``dialect`` is the MAVLink dialect it decodes (``ardupilotmega`` for ArduPilot, whose
+    own messages ``common`` does not know).
+    """
 
     uplink: str = "px4/mavlink/up"
     downlink: str = "px4/mavlink/down"
@@ -41,19 +57,138 @@ class GcsSpec(msgspec.Struct, frozen=True, kw_only=True):
     command_timeout: float = 1.0
     system_id: int = 255
     component_id: int = 190
+    dialect: Literal["common", "ardupilotmega"] = "common"
 
 
 class MissionFailed(Exception):
     """Raised inside the ground station to end a mission early with a reason."""
 
 
+class Procedure:
+    """How one autopilot is flown: what differs between autopilots, in one place.
+
+    The ground station calls, in this order: ``prepare`` (after the first HEARTBEAT),
+    waits until ``ready``, sets ``parameters``, uploads ``mission_items``, calls ``start``
+    (arm, take off, start the mission), then ``finished`` at every step until it says the
+    mission is done. Subclasses override what their autopilot does differently; the
+    defaults are PX4's.
+    """
+
+    first_waypoint = 1
+    """Mission sequence number of the configuration's first waypoint."""
+
+    def mode_label(self, heartbeat: Any) -> str:
+        """The flight mode's name from a HEARTBEAT (``AUTO.MISSION``, ``GUIDED``, ...)."""
+        raise NotImplementedError
+
+    def prepare(self, gs: GroundStation, config: Configuration) -> None:
+        """Anything to do once the autopilot is heard, before waiting for it to be ready."""
+
+    def ready(self, gs: GroundStation) -> bool:
+        """Whether the autopilot may be armed: its pre-arm checks pass and home is set."""
+        status = gs.sys_status
+        return (
+            status is not None
+            and bool(status.onboard_control_sensors_health & PREARM_BIT)
+            and gs.home is not None
+        )
+
+    def parameters(self, config: Configuration) -> list[tuple[str, float]]:
+        """The parameters that carry the configuration's speed and acceptance radius."""
+        raise NotImplementedError
+
+    def mission_items(
+        self, gs: GroundStation, config: Configuration, home_lat: float, home_lon: float
+    ) -> list[Any]:
+        """The MISSION_ITEM_INTs that fly ``config``."""
+        raise NotImplementedError
+
+    def start(self, gs: GroundStation, config: Configuration) -> None:
+        """Arm and start the uploaded mission; MissionFailed if the autopilot refuses."""
+        result = gs.command(CMD_ARM_DISARM, 1.0)
+        if result != 0:
+            raise MissionFailed("arming refused: " + gs.why(f"COMMAND_ACK result {result}"))
+        # The armed state is the HEARTBEAT's: one sent before the ACK may still be the last
+        # one seen, so wait for a heartbeat that says armed.
+        if not gs.wait(lambda: gs.armed, 3.0):
+            raise MissionFailed(gs.why("arming was acknowledged but the vehicle is not armed"))
+        result = gs.command(CMD_MISSION_START, 0.0, 0.0)
+        if result != 0:
+            raise MissionFailed("mission start refused: " + gs.why(f"result {result}"))
+
+    def finished(self, gs: GroundStation, config: Configuration, waypoints_done: bool) -> bool:
+        """Whether the mission is over and done (MissionFailed if it ended otherwise).
+
+        A vehicle that flies ends disarmed on the ground: holding at the last waypoint is
+        done once it is reached, landing or returning once it has landed and disarmed.
+        """
+        if config.end == "hold" and waypoints_done:
+            return True
+        if not gs.armed:
+            # Disarmed: the end of the flight. The landed state may lag the heartbeat.
+            gs.wait(lambda: gs.landed_state == LANDED_ON_GROUND, 2.0)
+            if waypoints_done and gs.landed_state == LANDED_ON_GROUND:
+                return True
+            raise MissionFailed(gs.why("disarmed before the mission completed"))
+        return False
+
+    def landed(self, gs: GroundStation) -> bool:
+        """Whether the vehicle is on the ground (EXTENDED_SYS_STATE)."""
+        return gs.landed_state == LANDED_ON_GROUND
+
+
+class PX4Procedure(Procedure):
+    """PX4: MPC_XY_CRUISE and NAV_ACC_RAD; a takeoff item, the waypoints, land or RTL."""
+
+    def mode_label(self, heartbeat: Any) -> str:
+        """PX4's mode name (``AUTO.MISSION``) from its custom mode."""
+        return mode_label(heartbeat.custom_mode)
+
+    def parameters(self, config: Configuration) -> list[tuple[str, float]]:
+        """PX4's cruise speed and acceptance radius."""
+        return [("MPC_XY_CRUISE", config.cruise_speed), ("NAV_ACC_RAD", config.acceptance_radius)]
+
+    def mission_items(
+        self, gs: GroundStation, config: Configuration, home_lat: float, home_lon: float
+    ) -> list[Any]:
+        """Takeoff, waypoints, then land or RTL."""
+        wps = config.mission
+        takeoff = config.takeoff_alt if config.takeoff_alt is not None else wps[0].alt
+        # Where it stands: PX4 checks the first item's distance from home.
+        items = [gs.item(0, CMD_TAKEOFF, lat=home_lat, lon=home_lon, alt=takeoff)]
+        for wp in wps:
+            items.append(
+                gs.item(
+                    len(items),
+                    CMD_WAYPOINT,
+                    params=(0, config.acceptance_radius, 0, math.nan),
+                    lat=wp.lat,
+                    lon=wp.lon,
+                    alt=wp.alt,
+                )
+            )
+        last = wps[-1]
+        if config.end == "land":
+            items.append(gs.item(len(items), CMD_LAND, lat=last.lat, lon=last.lon))
+        elif config.end == "rtl":
+            # No position: PX4 refuses RTL in a global frame.
+            items.append(gs.item(len(items), CMD_RTL, frame=FRAME_MISSION, params=(0, 0, 0, 0)))
+        return items
+
+
+PX4 = PX4Procedure()
+
+
 class GroundStation:
     """A MAVLink ground station stepping on the simulated clock."""
 
-    def __init__(self, ctx: FirmwareContext, spec: GcsSpec) -> None:
+    def __init__(
+        self, ctx: FirmwareContext, spec: GcsSpec, procedure: Procedure | None = None
+    ) -> None:
         self.ctx = ctx
         self.spec = spec
-        self.mav: Any = new_link(spec.system_id, spec.component_id)
+        self.procedure = procedure or PX4
+        self.mav: Any = new_link(spec.system_id, spec.component_id, spec.dialect)
         self.down = ctx.subscribe(spec.downlink, MavlinkPacket)
         self.truth = ctx.subscribe(spec.truth, Truth)
         self.target = (1, 1)
@@ -64,6 +199,7 @@ class GroundStation:
         self.attitude: Any = None
         self.local: Any = None
         self.current = 0
+        self.mission_state = 0
         self.texts: list[str] = []
         self.critical: list[str] = []
         self.acks: dict[int, int] = {}
@@ -86,8 +222,9 @@ class GroundStation:
 
     @property
     def mode(self) -> str:
-        """The autopilot's flight mode (PX4 name) from its last HEARTBEAT."""
-        return mode_label(self.heartbeat.custom_mode) if self.heartbeat is not None else ""
+        """The autopilot's flight mode from its last HEARTBEAT."""
+        hb = self.heartbeat
+        return self.procedure.mode_label(hb) if hb is not None else ""
 
     def send(self, msg: Any) -> None:
         """Send one MAVLink message to the autopilot."""
@@ -128,6 +265,7 @@ class GroundStation:
             self.home = m
         elif kind == "MISSION_CURRENT":
             self.current = m.seq
+            self.mission_state = getattr(m, "mission_state", 0)
         elif kind == "MISSION_ITEM_REACHED":
             if all(seq != m.seq for seq, _ in self.reached):
                 self.reached.append((m.seq, self.ctx.time))
@@ -169,7 +307,7 @@ class GroundStation:
                 roll=att.roll if att else math.nan,
                 pitch=att.pitch if att else math.nan,
                 yaw=att.yaw if att else math.nan,
-                mode=mode_label(hb.custom_mode) if hb else "",
+                mode=self.procedure.mode_label(hb) if hb else "",
                 armed=bool(hb and hb.base_mode & 128),
                 current=self.current,
                 true_lat=truth.lat if truth else math.nan,
@@ -186,6 +324,10 @@ class GroundStation:
                 return False
             self.step()
         return True
+
+    def why(self, default: str) -> str:
+        """The autopilot's last critical STATUSTEXT, else ``default`` (for failure reasons)."""
+        return self.critical[-1] if self.critical else default
 
     # -- protocols --------------------------------------------------------------------------
 
@@ -228,95 +370,31 @@ class GroundStation:
                 self.step()
         return -1
 
-    def mission_items(self, config: Configuration, home_lat: float, home_lon: float) -> list[Any]:
-        """The MISSION_ITEM_INTs for ``config``: takeoff, waypoints, then land or RTL."""
-        enc = self.mav.mission_item_int_encode
-        t_sys, t_comp = self.target
-        wps = config.mission
-        takeoff = config.takeoff_alt if config.takeoff_alt is not None else wps[0].alt
-        acc = config.acceptance_radius
-        items = [
-            enc(
-                t_sys,
-                t_comp,
-                0,
-                FRAME_GLOBAL_REL_INT,
-                CMD_TAKEOFF,
-                0,
-                1,
-                0,
-                0,
-                0,
-                math.nan,
-                # Where it stands: PX4 checks the first item's distance from home.
-                round(home_lat * 1e7),
-                round(home_lon * 1e7),
-                takeoff,
-                0,
-            )
-        ]
-        for wp in wps:
-            items.append(
-                enc(
-                    t_sys,
-                    t_comp,
-                    len(items),
-                    FRAME_GLOBAL_REL_INT,
-                    CMD_WAYPOINT,
-                    0,
-                    1,
-                    0,
-                    acc,
-                    0,
-                    math.nan,
-                    round(wp.lat * 1e7),
-                    round(wp.lon * 1e7),
-                    wp.alt,
-                    0,
-                )
-            )
-        last = wps[-1]
-        if config.end == "land":
-            items.append(
-                enc(
-                    t_sys,
-                    t_comp,
-                    len(items),
-                    FRAME_GLOBAL_REL_INT,
-                    CMD_LAND,
-                    0,
-                    1,
-                    0,
-                    0,
-                    0,
-                    math.nan,
-                    round(last.lat * 1e7),
-                    round(last.lon * 1e7),
-                    0,
-                    0,
-                )
-            )
-        elif config.end == "rtl":
-            items.append(
-                enc(
-                    t_sys,
-                    t_comp,
-                    len(items),
-                    FRAME_MISSION,  # no position: PX4 refuses RTL in a global frame
-                    CMD_RTL,
-                    0,
-                    1,
-                    0,
-                    0,
-                    0,
-                    0,
-                    0,
-                    0,
-                    0,
-                    0,
-                )
-            )
-        return items
+    def item(
+        self,
+        seq: int,
+        command: int,
+        *,
+        frame: int = FRAME_GLOBAL_REL_INT,
+        params: tuple[float, float, float, float] = (0, 0, 0, math.nan),
+        lat: float = 0.0,
+        lon: float = 0.0,
+        alt: float = 0.0,
+    ) -> Any:
+        """One MISSION_ITEM_INT (auto-continue) for the autopilot."""
+        return self.mav.mission_item_int_encode(
+            *self.target,
+            seq,
+            frame,
+            command,
+            0,
+            1,
+            *params,
+            round(lat * 1e7),
+            round(lon * 1e7),
+            alt,
+            0,
+        )
 
     # -- the mission ------------------------------------------------------------------------
 
@@ -331,8 +409,11 @@ class GroundStation:
         except MissionFailed as exc:
             reason = str(exc)
         n = len(config.mission)
+        first = self.procedure.first_waypoint
         reached = [
-            WaypointReached(index=seq - 1, time=t) for seq, t in self.reached if 1 <= seq <= n
+            WaypointReached(index=seq - first, time=t)
+            for seq, t in self.reached
+            if first <= seq < first + n
         ]
         return MissionResult(
             trajectory=self.samples,
@@ -341,89 +422,70 @@ class GroundStation:
             reason=reason,
             start_time=start,
             end_time=self.ctx.time,
-            landed=self.landed_state == LANDED_ON_GROUND,
+            landed=self.procedure.landed(self),
             armed=self.armed,
             messages=list(self.texts),
             firmware_version=self.version,
         )
 
-    def _why(self, default: str) -> str:
-        return self.critical[-1] if self.critical else default
-
     def _fly(self, config: Configuration, start: float) -> bool:
+        procedure = self.procedure
         deadline = start + config.time_limit
         self.recording = True
         if not self.wait(lambda: self.heartbeat is not None, min(10.0, config.time_limit)):
             raise MissionFailed("no HEARTBEAT from the autopilot")
         # Which firmware flies (for the result); no answer is no failure.
         self.command(CMD_REQUEST_MESSAGE, MSG_AUTOPILOT_VERSION, tries=1)
+        procedure.prepare(self, config)
         ready = self.wait(
-            lambda: (
-                self.sys_status is not None
-                and bool(self.sys_status.onboard_control_sensors_health & PREARM_BIT)
-                and self.home is not None
-            ),
+            lambda: procedure.ready(self),
             min(self.spec.preflight_timeout, deadline - self.ctx.time),
         )
         if not ready and self.ctx.time >= deadline:
             raise MissionFailed(f"time limit of {config.time_limit:g} s reached before arming")
-        for name, value in (
-            ("MPC_XY_CRUISE", config.cruise_speed),
-            ("NAV_ACC_RAD", config.acceptance_radius),
-        ):
+        for name, value in procedure.parameters(config):
             if not self.set_param(name, value):
                 raise MissionFailed(f"the autopilot did not accept parameter {name}={value:g}")
         home = self.home
         home_lat = home.latitude * 1e-7 if home else config.mission[0].lat
         home_lon = home.longitude * 1e-7 if home else config.mission[0].lon
-        items = self.mission_items(config, home_lat, home_lon)
+        items = procedure.mission_items(self, config, home_lat, home_lon)
         ack = self.upload(items)
         if ack != 0:
             raise MissionFailed(
-                self._why(f"mission upload failed (MISSION_ACK {ack})")
+                self.why(f"mission upload failed (MISSION_ACK {ack})")
                 if ack >= 0
                 else "mission upload timed out"
             )
-        result = self.command(CMD_ARM_DISARM, 1.0)
-        if result != 0:
-            raise MissionFailed("arming refused: " + self._why(f"COMMAND_ACK result {result}"))
-        # The armed state is the HEARTBEAT's: one sent before the ACK may still be the last
-        # one seen, so wait for a heartbeat that says armed.
-        if not self.wait(lambda: self.armed, 3.0):
-            raise MissionFailed(self._why("arming was acknowledged but the vehicle is not armed"))
-        result = self.command(CMD_MISSION_START, 0.0, 0.0)
-        if result != 0:
-            raise MissionFailed("mission start refused: " + self._why(f"result {result}"))
-        last_wp_seq = len(config.mission)
+        procedure.start(self, config)
+        first_wp_seq = procedure.first_waypoint
+        last_wp_seq = first_wp_seq + len(config.mission) - 1
         while True:
             if self.ctx.time >= deadline:
                 raise MissionFailed(
                     f"time limit of {config.time_limit:g} s reached"
-                    f" ({len([s for s, _ in self.reached if 1 <= s <= last_wp_seq])} of "
-                    f"{len(config.mission)} waypoints reached)"
+                    f" ({len([s for s, _ in self.reached if first_wp_seq <= s <= last_wp_seq])}"
+                    f" of {len(config.mission)} waypoints reached)"
                 )
             self.step()
             # Items are flown in order: the last waypoint reached means all were. (What
             # follows it, land or return, is a mode of its own: PX4 reports no item reached
             # for a return-to-launch.)
             waypoints_done = any(seq == last_wp_seq for seq, _ in self.reached)
-            if config.end == "hold" and waypoints_done:
+            if procedure.finished(self, config, waypoints_done):
                 return True
-            if not self.armed:
-                # Disarmed: the end of the flight. The landed state may lag the heartbeat.
-                self.wait(lambda: self.landed_state == LANDED_ON_GROUND, 2.0)
-                if waypoints_done and self.landed_state == LANDED_ON_GROUND:
-                    return True
-                raise MissionFailed(self._why("disarmed before the mission completed"))
 
 
 def ground_station(
-    spec: GcsSpec | None = None, name: str = "gcs"
+    spec: GcsSpec | None = None, name: str = "gcs", procedure: Procedure | None = None
 ) -> Firmware[Configuration, MissionResult]:
-    """The ground-station firmware for ``spec``: send it a Configuration, get a MissionResult."""
+    """The ground-station firmware for ``spec``: send it a Configuration, get a MissionResult.
+
+    ``procedure`` says how to fly the autopilot (default: PX4's).
+    """
     spec = spec or GcsSpec()
 
     def handler(config: Configuration, ctx: FirmwareContext) -> MissionResult:
-        return GroundStation(ctx, spec).fly(config)
+        return GroundStation(ctx, spec, procedure).fly(config)
 
     return Firmware(handler, Configuration, spec.period, name)

@@ -102,7 +102,8 @@ class MavlinkPacket(msgspec.Struct, frozen=True, array_like=True, gc=False):
 
 class Truth(msgspec.Struct, frozen=True, array_like=True, gc=False):
     """The world's ground truth: local NED position (m) from home, velocity, WGS84 position,
-    attitude (unit quaternion w, x, y, z rotating FRD body axes into NED) and body rates."""
+    attitude (unit quaternion w, x, y, z rotating FRD body axes into NED), body rates and the
+    specific force (m/s^2, body FRD: what an ideal accelerometer reads, gravity included)."""
 
     time: float
     north: float
@@ -121,6 +122,9 @@ class Truth(msgspec.Struct, frozen=True, array_like=True, gc=False):
     rollspeed: float = 0.0
     pitchspeed: float = 0.0
     yawspeed: float = 0.0
+    xacc: float = 0.0
+    yacc: float = 0.0
+    zacc: float = 0.0
 
 
 HilMessage = HilSensor | HilGps | HilActuatorControls

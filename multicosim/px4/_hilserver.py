@@ -42,7 +42,7 @@ from ._hil import (
 )
 from ._mav import dialect, new_link
 
-__all__ = ["SIM_PORT", "HilTcpBridge"]
+__all__ = ["SIM_PORT", "HilTcpBridge", "Lockstep"]
 
 log = logging.getLogger(__name__)
 
@@ -65,7 +65,53 @@ def _parse(parser: Any, data: bytes) -> list[Any]:
     return [m for m in frames if m.get_type() != "BAD_DATA"]
 
 
-class HilTcpBridge:
+class Lockstep:
+    """What a lockstep bridge to a firmware needs: the firmware's liveness and its errors.
+
+    ``watch`` is the firmware's process or container (None: not watched); a bridge says
+    where it is in the run (``_where``) for the errors.
+    """
+
+    name: str
+    watch: Watch | None
+    lockstep_timeout: float
+
+    def _where(self) -> str:
+        raise NotImplementedError
+
+    def _check_alive(self) -> None:
+        watch = self.watch
+        if watch is not None and watch.poll() is not None:
+            raise self._lost("exited")
+
+    def _lost(self, what: str) -> MulticosimError:
+        """The error for a firmware that went away (``what``), with its exit code and output.
+
+        A firmware that closes its connection is usually exiting: it gets a moment to do
+        so, so that the error names its exit code. Marked as reported: stopping its process
+        later does not raise the same crash again.
+        """
+        reason = f"{what} at {self._where()}"
+        watch = self.watch
+        if watch is None:
+            return NodeCrashedError(self.name, reason)
+        if watch.poll() is None:
+            for _ in range(20):
+                time.sleep(0.05)
+                if watch.poll() is not None:
+                    break
+        return crashed(watch, reason)
+
+    def _silent(self, awaited: str) -> MulticosimError:
+        return NodeTimeoutError(
+            self.name,
+            f"sent no {awaited} within {self.lockstep_timeout:g} s of wall time "
+            f"(lockstep, {self._where()})",
+            log_tail=self.watch.log_tail() if self.watch is not None else "",
+        )
+
+
+class HilTcpBridge(Lockstep):
     """A participant serving PX4's simulator interface over TCP, in lockstep."""
 
     def __init__(
@@ -264,7 +310,7 @@ class HilTcpBridge:
             if left <= 0:
                 if not self.answering:
                     return None
-                raise self._silent()
+                raise self._silent("HIL_ACTUATOR_CONTROLS")
             # Short slices: a PX4 that exits is noticed at once, not after the timeout.
             ready, _, _ = select.select([conn], [], [], min(left, 0.2))
             if not ready:
@@ -281,34 +327,8 @@ class HilTcpBridge:
                 self.answering = True
                 return controls
 
-    def _check_alive(self) -> None:
-        watch = self.watch
-        if watch is not None and watch.poll() is not None:
-            raise self._lost("exited")
-
-    def _lost(self, what: str) -> MulticosimError:
-        watch = self.watch
-        code = watch.poll() if watch is not None else None
-        if watch is not None and code is None:
-            # It may be exiting right now: give it a moment so the error names its exit code.
-            for _ in range(20):
-                time.sleep(0.05)
-                code = watch.poll()
-                if code is not None:
-                    break
-        reason = f"{what} at simulated step {self.steps}"
-        if watch is None:
-            return NodeCrashedError(self.name, reason)
-        # Marked as reported: stopping the process later does not raise the same crash again.
-        return crashed(watch, reason)
-
-    def _silent(self) -> MulticosimError:
-        return NodeTimeoutError(
-            self.name,
-            f"sent no HIL_ACTUATOR_CONTROLS within {self.lockstep_timeout:g} s of wall time "
-            f"(lockstep, step {self.steps})",
-            log_tail=self.watch.log_tail() if self.watch is not None else "",
-        )
+    def _where(self) -> str:
+        return f"simulated step {self.steps}"
 
     def close(self) -> None:
         """Close the sockets."""

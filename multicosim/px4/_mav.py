@@ -7,6 +7,7 @@ PX4 reports its flight mode in HEARTBEAT.custom_mode as ``main_mode << 16 | sub_
 from __future__ import annotations
 
 import enum
+import importlib
 import struct
 from collections import deque
 from types import ModuleType
@@ -24,24 +25,27 @@ __all__ = [
     "new_link",
 ]
 
-_dialect: ModuleType | None = None
+_dialects: dict[str, ModuleType] = {}
 
 
-def dialect() -> ModuleType:
-    """pymavlink's MAVLink 2 ``common`` dialect module (imported on first use)."""
-    global _dialect
-    if _dialect is None:
+def dialect(name: str = "common") -> ModuleType:
+    """pymavlink's MAVLink 2 dialect module ``name`` (imported on first use).
+
+    ``common`` is what PX4 speaks; ``ardupilotmega`` adds ArduPilot's own messages.
+    """
+    module = _dialects.get(name)
+    if module is None:
         try:
-            from pymavlink.dialects.v20 import common
+            module = importlib.import_module(f"pymavlink.dialects.v20.{name}")
         except ImportError as exc:  # pragma: no cover - depends on the installation
             raise DependencyMissingError("pymavlink", "mavlink") from exc
-        _dialect = common
-    return _dialect
+        _dialects[name] = module
+    return module
 
 
-def new_link(system: int, component: int) -> Any:
+def new_link(system: int, component: int, dialect_name: str = "common") -> Any:
     """A MAVLink 2 encoder/parser for one system/component (no file, packets are returned)."""
-    mav = dialect().MAVLink(None, srcSystem=system, srcComponent=component)
+    mav = dialect(dialect_name).MAVLink(None, srcSystem=system, srcComponent=component)
     mav.robust_parsing = True
     return mav
 

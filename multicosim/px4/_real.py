@@ -35,7 +35,7 @@ import re
 import socket
 import sys
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
 
@@ -91,7 +91,9 @@ class SITL:
     ``model`` picks the airframe as ``PX4_SIM_MODEL`` does (``none_iris``: the generic quad
     our world simulates). ``params`` are set at boot (``param set`` in ``px4-rc.params``).
     ``start_timeout`` bounds (in wall seconds) PX4's start until it connects to its
-    simulator; ``lockstep_timeout`` a lockstep step once it runs.
+    simulator; ``lockstep_timeout`` a lockstep step once it runs. ``first_instance`` is the
+    lowest instance number a local run claims (the ones below stay free for PX4s started by
+    hand on their usual ports).
     """
 
     binary: str | None = None
@@ -101,6 +103,7 @@ class SITL:
     params: Mapping[str, float] = dataclasses.field(default_factory=dict)
     start_timeout: float = 60.0
     lockstep_timeout: float = 30.0
+    first_instance: int = 0
 
     def __post_init__(self) -> None:
         if self.binary is None and self.image is None:
@@ -139,6 +142,7 @@ class SITL:
             value = getattr(self, field)
             if isinstance(value, bool) or not isinstance(value, int | float) or not value > 0:
                 raise ConfigurationError(field, value, "a positive number of seconds")
+        check_first_instance(self.first_instance, MAX_INSTANCE)
 
     def _check_binary(self) -> None:
         binary = self.binary
@@ -216,13 +220,22 @@ def _udp_free(host: str, port: int) -> bool:
     return True
 
 
-def claim_instance(host: str = "127.0.0.1", *, gcs_link: bool = False) -> tuple[int, socket.socket]:
-    """A free PX4 instance number and its simulator port, bound and listening (the claim).
+def check_first_instance(first: object, most: int) -> None:
+    """Raise ConfigurationError unless ``first`` is an instance number from 0 to ``most``."""
+    if isinstance(first, bool) or not isinstance(first, int) or not 0 <= first <= most:
+        raise ConfigurationError("first_instance", first, f"an instance number from 0 to {most}")
+
+
+def claim_instance(
+    host: str = "127.0.0.1", *, gcs_link: bool = False, first: int = 0
+) -> tuple[int, socket.socket]:
+    """A free PX4 instance number from ``first`` on and its simulator port, bound and
+    listening (the claim).
 
     Binding ``SIM_PORT + N`` is atomic, so two runs never claim the same instance; PX4's
     own UDP ports and lock file for ``N`` are checked free as well.
     """
-    for n in range(MAX_INSTANCE + 1):
+    for n in range(first, MAX_INSTANCE + 1):
         if _lock_held(n):
             continue
         if not _udp_free("127.0.0.1", API_LOCAL_PORT + n):
@@ -401,6 +414,18 @@ class SitlNodes:
         """Track ``node`` (stopped before those added earlier)."""
         self.nodes.append((name, node))
 
+    @contextlib.contextmanager
+    def starting(self) -> Iterator[SitlNodes]:
+        """Stop every part started so far if the start fails; the start's error propagates."""
+        try:
+            yield self
+        except BaseException as exc:
+            try:
+                self.stop()
+            except Exception as cleanup:  # the start error says what matters; keep this too
+                exc.add_note(f"while stopping what had started: {cleanup!r}")
+            raise
+
     def flight_logs(self, into: Path) -> list[Path]:
         """PX4's ULog files (``log/**/*.ulg``), copied out of a container into ``into``."""
         container = getattr(self.process, "container", None)
@@ -418,7 +443,8 @@ class SitlNodes:
         stop_all([(name, node.stop) for name, node in reversed(nodes)], f"component {self.name!r}")
 
 
-def _copy_out(container: Any, path: str, into: Path) -> list[Path]:
+def _copy_out(container: Any, path: str, into: Path, suffix: str = ".ulg") -> list[Path]:
+    """The ``suffix`` files under ``path`` in ``container``, copied into ``into``."""
     import io
     import tarfile
 
@@ -429,9 +455,9 @@ def _copy_out(container: Any, path: str, into: Path) -> list[Path]:
     data = io.BytesIO(b"".join(stream))
     into.mkdir(parents=True, exist_ok=True)
     with tarfile.open(fileobj=data) as tar:
-        members = [m for m in tar.getmembers() if m.isfile() and m.name.endswith(".ulg")]
+        members = [m for m in tar.getmembers() if m.isfile() and m.name.endswith(suffix)]
         tar.extractall(into, members=members, filter="data")
-    return sorted(into.glob("**/*.ulg"))
+    return sorted(into.glob(f"**/*{suffix}"))
 
 
 def start_sitl(
@@ -459,7 +485,7 @@ def start_sitl(
 
     group = SitlNodes(name)
     container = _is_container_environment(environment)
-    try:
+    with group.starting():
         if container:
             # Each simulation has a network of its own: PX4 is instance 0 in its container
             # and reaches the bridge on the network's gateway, where nothing else listens.
@@ -467,7 +493,9 @@ def start_sitl(
             instance, server = 0, _listen(host, SIM_PORT)
         else:
             host = "127.0.0.1"
-            instance, server = claim_instance(host, gcs_link=uplink is None)
+            instance, server = claim_instance(
+                host, gcs_link=uplink is None, first=sitl.first_instance
+            )
         bridge_node = ParticipantComponent(
             lambda: HilTcpBridge(
                 topics,
@@ -517,12 +545,6 @@ def start_sitl(
         bridge.watch = process
         wait_connected(bridge, process, name, sitl.start_timeout)
         log.info("%s: PX4 instance %d connected to its simulator", name, instance)
-    except BaseException as exc:
-        try:
-            group.stop()
-        except Exception as cleanup:  # the start error says what matters; keep this beside it
-            exc.add_note(f"while stopping what had started: {cleanup!r}")
-        raise
     return group
 
 
@@ -553,8 +575,6 @@ def _start_container(
     links: Sequence[MavlinkLink],
     params: Mapping[str, float],
 ) -> Any:
-    from ..docker import ContainerComponent
-
     assert sitl.image is not None
     command = container_command(
         instance=instance,
@@ -563,6 +583,14 @@ def _start_container(
         params=params,
         model=sitl.model,
     )
-    return ContainerComponent(
-        sitl.image, command, name=name, ready="started", stop_timeout=10.0
+    return run_container(environment, sitl.image, command, name)
+
+
+def run_container(environment: Any, image: str, command: list[str], name: str) -> Node:
+    """Start firmware ``command`` in a container of ``image`` on the simulation's network."""
+    from ..docker import ContainerComponent
+
+    node: Node = ContainerComponent(
+        image, command, name=name, ready="started", stop_timeout=10.0
     ).start(environment)
+    return node

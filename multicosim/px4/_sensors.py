@@ -10,7 +10,8 @@ expects (and our autopilot reads):
 * ``HIL_GPS`` at 10 Hz: WGS84 position and NED velocity with a GNSS error that drifts slowly
   (first-order Gauss-Markov, as a real receiver's does; white position noise would trip
   PX4's GPS drift checks while landed);
-* :class:`~multicosim.px4.hil.Truth` at 20 Hz: the world's ground truth, attitude included.
+* :class:`~multicosim.px4.hil.Truth` at 20 Hz: the world's ground truth, attitude and
+  specific force included.
 
 Noise is scaled by ``WorldConfig.noise`` (0: ideal sensors) and drawn from the component's
 seeded generator in one fixed order, whichever topics the readings go to, so that remapping
@@ -25,6 +26,7 @@ from typing import Any
 from .._runtime import StepContext
 from ..geo import LocalProjection, pressure_hpa, rotate_to_body
 from ..mujoco._config import WorldConfig
+from ..mujoco._frames import NedState, Vec3, truth
 from ._config import Topics, world_topics
 from ._hil import (
     BARO_FIELDS,
@@ -32,7 +34,6 @@ from ._hil import (
     MAG_FIELDS,
     HilGps,
     HilSensor,
-    Truth,
     Wire,
     pack,
 )
@@ -51,7 +52,6 @@ GPS_EPH_CM, GPS_EPV_CM = 100, 150  # reported accuracy
 ACCEL_SIGMA, GYRO_SIGMA = 0.02, 0.002  # m/s^2, rad/s
 MAG_SIGMA, BARO_SIGMA = 0.003, 0.1  # gauss, m
 
-Vec3 = tuple[float, float, float]
 _ZERO3: Vec3 = (0.0, 0.0, 0.0)
 _NO_BARO = (0.0, 0.0, 0.0, 0.0)
 
@@ -169,11 +169,8 @@ class HilSensors:
         if n % self._gps_every == 0:
             self._emit(ctx, topics.gps, self._gps(t_us, ned, vel, alt_msl))
         if n % self._truth_every == 0:
-            lat, lon = self.proj.reproject(ned[0], ned[1])
-            ctx.publish(
-                topics.truth,
-                Truth(ctx.time, *ned, *vel, lat, lon, -ned[2], *q, *gyro),
-            )
+            state = NedState(ned, vel, q, accel, gyro)
+            ctx.publish(topics.truth, truth(ctx.time, state, self.proj))
 
     def _gps(self, t_us: int, ned: Vec3, vel: Vec3, alt_msl: float) -> HilGps:
         k = self._noise

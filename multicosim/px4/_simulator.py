@@ -44,7 +44,15 @@ from .._local import (
 )
 from .._messages import type_name
 from ._autopilot import Autopilot, AutopilotSpec
-from ._config import Configuration, Geofence, MissionResult, MuJoCo, Topics, world_topics
+from ._config import (
+    Configuration,
+    Geofence,
+    Home,
+    MissionResult,
+    MuJoCo,
+    Topics,
+    world_topics,
+)
 from ._gcs import GcsSpec, ground_station
 from ._hil import Wire
 from ._real import SENSOR_RATE, SITL, start_sitl
@@ -61,6 +69,7 @@ __all__ = [
     "PX4",
     "Backend",
     "Fidelity",
+    "MissionNode",
     "PX4Component",
     "PX4Node",
     "PX4Simulation",
@@ -110,7 +119,7 @@ def _participant_command(factory: str, spec: msgspec.Struct) -> list[str]:
     return [sys.executable, "-m", *_program(factory, spec)]
 
 
-def _needs_images(component: object) -> bool:
+def needs_images(component: object) -> bool:
     """Whether ``component`` runs containers (it names images it needs)."""
     images = getattr(component, "required_images", None)
     return callable(images) and bool(images())
@@ -182,12 +191,13 @@ class WorldComponent:
         )
 
 
-class PX4Node:
-    """The PX4 firmware node: ``send(Configuration) -> MissionResult`` flies a mission.
+class MissionNode:
+    """A firmware node flown by a ground station: ``send(Configuration) -> MissionResult``.
 
     ``send`` acts as the ground station (the reference's MAVSDK script): it validates the
-    configuration against the geofence, sets parameters, uploads the mission, arms, starts
-    it and records the trajectory until the mission ends or its time limit passes.
+    configuration (``check``), sets parameters, uploads the mission, arms, starts it and
+    records the trajectory until the mission ends or its time limit passes. ``component``
+    is what started it (its ``world`` has home, its ``geofence`` bounds missions).
     """
 
     def __init__(
@@ -195,7 +205,7 @@ class PX4Node:
         name: str,
         gcs: InProcessFirmwareNode[Configuration, MissionResult],
         autopilot: Node,
-        component: PX4Component,
+        component: Any,
     ) -> None:
         self.name = name
         self._gcs = gcs
@@ -204,21 +214,20 @@ class PX4Node:
         self._stopped = False
 
     @property
-    def autopilot(self) -> Autopilot | None:
-        """The live autopilot object when it runs in this process (for inspection)."""
-        return getattr(self._autopilot, "participant", None)
-
-    @property
     def container(self) -> ContainerNode | None:
         """The autopilot's container node when it runs in one (the docker backend)."""
         # Also how a ContainerSimulation finds it, to signal it at stop with the others.
         # Without the docker backend loaded there is no container (and no SDK to import).
         components = sys.modules.get("multicosim.docker._components")
-        # Real PX4's nodes keep its process or container as ``process``.
+        # Real firmware's nodes keep its process or container as ``process``.
         node = getattr(self._autopilot, "process", self._autopilot)
         if components is not None and isinstance(node, components.ContainerNode):
             return cast("ContainerNode", node)
         return None
+
+    def check(self, msg: Configuration) -> None:
+        """Raise ConfigurationError if ``msg`` cannot be flown (a waypoint outside the fence)."""
+        msg.check_geofence(self._component.world.home, self._component.geofence)
 
     def send(self, msg: Configuration) -> MissionResult:
         """Fly the mission in ``msg`` and return its result."""
@@ -228,7 +237,7 @@ class PX4Node:
             raise MessageTypeError(
                 "msg", msg, f"a {type_name(Configuration)} (the message type of {self.name!r})"
             )
-        msg.check_geofence(self._component.world.home, self._component.geofence)
+        self.check(msg)
         return self._gcs.send(msg)
 
     def stop(self) -> None:
@@ -242,6 +251,17 @@ class PX4Node:
             [(f"{self.name}.gcs", self._gcs.stop), (self.name, self._autopilot.stop)],
             f"component {self.name!r}",
         )
+
+
+class PX4Node(MissionNode):
+    """The PX4 firmware node: ``send(Configuration) -> MissionResult`` flies a mission."""
+
+    _component: PX4Component
+
+    @property
+    def autopilot(self) -> Autopilot | None:
+        """The live autopilot object when it runs in this process (for inspection)."""
+        return getattr(self._autopilot, "participant", None)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -403,6 +423,11 @@ class PX4Simulation(ScenarioSimulation):
         self.firmware: PX4Node = simulation.get(firmware_id)
         self.world: Node = simulation.get(world_id)
 
+    @property
+    def home(self) -> Home:
+        """Where the autopilot's home is (latitude, longitude, altitude AMSL): the origin."""
+        return self.firmware._component.world.home
+
     def trace_options(self) -> TraceOptions:
         """What a recorder of this simulation should know (types, decoders, Foxglove channels)."""
         from ._trace import trace_options
@@ -538,7 +563,7 @@ class PX4:
 
         Any component runs on the docker backend; container components need it.
         """
-        if self.backend != "docker" and _needs_images(component):
+        if self.backend != "docker" and needs_images(component):
             raise ConfigurationError(
                 "component",
                 component,

@@ -51,7 +51,7 @@ if TYPE_CHECKING:
     from ..geo import Home
     from ._simulator import PX4Component
 
-__all__ = ["mavlink_message", "mavlink_schema", "trace_options"]
+__all__ = ["mavlink_message", "mavlink_schema", "mission_trace", "trace_options"]
 
 LOG_CHANNEL = "px4/log"
 POSE_CHANNEL = "px4/pose"
@@ -144,8 +144,16 @@ def mavlink_message(m: Any) -> dict[str, Any]:
 class _Links:
     """Decodes MAVLink topics into per-type channels and derives the Foxglove channels."""
 
-    def __init__(self, topics: tuple[str, ...], uplink: str, downlink: str, home: Home) -> None:
+    def __init__(
+        self,
+        topics: tuple[str, ...],
+        uplink: str,
+        downlink: str,
+        home: Home,
+        dialect_name: str = "common",
+    ) -> None:
         self.topics = topics
+        self._dialect = dialect_name
         self._uplink = uplink
         self._downlink = downlink
         self._parsers: dict[str, Any] = {}
@@ -162,7 +170,7 @@ class _Links:
             return ()
         parser = self._parsers.get(topic)
         if parser is None:
-            parser = self._parsers[topic] = new_link(0, 0)
+            parser = self._parsers[topic] = new_link(0, 0, self._dialect)
         return list(self._convert(topic, time_ns, decode_frames(parser, data)))
 
     def _convert(self, topic: str, time_ns: int, decoded: list[Any]) -> Iterator[Converted]:
@@ -312,11 +320,35 @@ def trace_options(component: PX4Component) -> TraceOptions:
     types: dict[str, Any] = {
         topic: MavlinkPacket if mavlink_wire else tp for topic, tp in hil.items()
     }
-    types.update({world.truth: Truth, spec.uplink: MavlinkPacket, spec.downlink: MavlinkPacket})
-    links = (spec.uplink, spec.downlink, *(sorted(hil) if mavlink_wire else ()))
-    down = spec.downlink
-    target = f"{down}/POSITION_TARGET_LOCAL_NED"
-    local = f"{down}/LOCAL_POSITION_NED"
+    return mission_trace(
+        uplink=spec.uplink,
+        downlink=spec.downlink,
+        truth=world.truth,
+        home=component.world.home,
+        types=types,
+        links=(spec.uplink, spec.downlink, *(sorted(hil) if mavlink_wire else ())),
+    )
+
+
+def mission_trace(
+    *,
+    uplink: str,
+    downlink: str,
+    truth: str,
+    home: Home,
+    types: dict[str, Any],
+    links: tuple[str, ...] | None = None,
+    dialect_name: str = "common",
+) -> TraceOptions:
+    """Trace options of a ground station's MAVLink link and the world's truth (any autopilot).
+
+    ``links`` are the MAVLink topics decoded into channels (default: the uplink and the
+    downlink); ``types`` the other topics' message types.
+    """
+    links = links or (uplink, downlink)
+    types = {**types, truth: Truth, uplink: MavlinkPacket, downlink: MavlinkPacket}
+    target = f"{downlink}/POSITION_TARGET_LOCAL_NED"
+    local = f"{downlink}/LOCAL_POSITION_NED"
     plots = [
         (
             f"{axis}: setpoint vs estimate (local NED, m)",
@@ -335,11 +367,8 @@ def trace_options(component: PX4Component) -> TraceOptions:
     )
     return TraceOptions(
         types=types,
-        converters=[
-            _Links(links, spec.uplink, down, component.world.home),
-            _Truth(world.truth, component.world.home),
-        ],
+        converters=[_Links(links, uplink, downlink, home, dialect_name), _Truth(truth, home)],
         replaced=links,
-        tlog=(spec.uplink, spec.downlink),
+        tlog=(uplink, downlink),
         plots=plots,
     )

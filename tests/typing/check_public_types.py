@@ -57,3 +57,15 @@ def check_protocols() -> None:
     component: mcs.Component[None, Model] = ModelComponent()
     simulator: mcs.Simulator[None] = mcs.InProcessSimulator()
     del node, component, simulator
+
+
+def check_ardupilot_is_typed() -> None:
+    import multicosim.ardupilot as ardupilot
+
+    simulator = ardupilot.Copter(fidelity="medium", firmware_dir="ardupilot-sitl")
+    with simulator.start() as simulation:
+        assert_type(simulation, ardupilot.ArduPilotSimulation)
+        assert_type(simulation.home, ardupilot.Home)
+        config = ardupilot.Configuration([ardupilot.Waypoint(47.4, 8.5, 10.0)])
+        assert_type(simulation.firmware.send(config), ardupilot.MissionResult)
+        assert_type(simulation.get(simulator.firmware_id), ardupilot.ArduPilotNode)

@@ -1,0 +1,99 @@
+"""ArduPilot in the loop: ArduCopter flies our quadrotor, ArduRover drives our rover.
+
+Real ArduPilot SITL (ArduCopter, ArduRover) uses our MuJoCo worlds as its JSON physics
+backend, in lockstep, and is flown through the same mission API as PX4::
+
+    import multicosim.ardupilot as ardupilot
+
+    simulator = ardupilot.Copter(fidelity="medium", firmware_dir="../shared/ardupilot-sitl")
+    with simulator.start() as simulation:
+        home = simulation.home
+        result = simulation.firmware.send(
+            ardupilot.Configuration([ardupilot.Waypoint(home.lat + 2e-4, home.lon, 20.0)])
+        )
+    assert result.completed, result.reason
+
+``import multicosim.ardupilot`` loads neither MuJoCo nor pymavlink; they load when a
+simulation starts.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from ..geo import Home
+from ..mujoco._config import WorldConfig
+from ..px4._config import (
+    Configuration,
+    Geofence,
+    MissionResult,
+    Sample,
+    Waypoint,
+    WaypointReached,
+)
+
+_LAZY = {
+    "BACKENDS": "._simulator",
+    "FIDELITIES": "._simulator",
+    "ArduPilotComponent": "._simulator",
+    "ArduPilotNode": "._simulator",
+    "ArduPilotSimulation": "._simulator",
+    "Backend": "._simulator",
+    "Copter": "._simulator",
+    "Fidelity": "._simulator",
+    "Rover": "._simulator",
+    "SITL": "._launch",
+    "default_world": "._simulator",
+}
+
+__all__ = [
+    "BACKENDS",
+    "FIDELITIES",
+    "SITL",
+    "ArduPilotComponent",
+    "ArduPilotNode",
+    "ArduPilotSimulation",
+    "Backend",
+    "Configuration",
+    "Copter",
+    "Fidelity",
+    "Geofence",
+    "Home",
+    "MissionResult",
+    "Rover",
+    "Sample",
+    "Waypoint",
+    "WaypointReached",
+    "WorldConfig",
+    "default_world",
+]
+
+if TYPE_CHECKING:
+    from ._launch import SITL
+    from ._simulator import (
+        BACKENDS,
+        FIDELITIES,
+        ArduPilotComponent,
+        ArduPilotNode,
+        ArduPilotSimulation,
+        Backend,
+        Copter,
+        Fidelity,
+        Rover,
+        default_world,
+    )
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'multicosim.ardupilot' has no attribute {name!r}")
+    import importlib
+
+    value = getattr(importlib.import_module(module, __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)

@@ -1,0 +1,470 @@
+"""The paper's API for ArduPilot: ``Copter`` and ``Rover`` Simulators and their simulation.
+
+========  ==========================================  ========================================
+fidelity  world                                       ArduPilot
+========  ==========================================  ========================================
+medium    MuJoCo, one 2.5 ms step per physics frame   real SITL: a local process
+          (400 Hz, ArduPilot's loop rate)             (``backend="process"``) or a container
+high      MuJoCo at 0.5 ms, five steps per frame,     of its image on the simulation's network
+          more solver iterations                      (``backend="docker"``)
+========  ==========================================  ========================================
+
+The world and ArduPilot's JSON bridge run in this process on both backends (one lockstep
+exchange per physics frame); the ground station behind ``simulation.firmware.send`` too.
+There is no low fidelity: ArduPilot flies the MuJoCo world.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Literal, cast
+
+from .._errors import ConfigurationError, NodeStartError
+from .._interfaces import Component, Node, NodeId
+from .._local import (
+    InProcessFirmwareComponent,
+    LocalEnvironment,
+    ParticipantComponent,
+    ProcessSimulation,
+    ProcessSimulator,
+    ScenarioSimulation,
+)
+from ..geo import Home
+from ..mujoco._config import WorldConfig
+from ..px4._config import Configuration, Geofence
+from ..px4._gcs import GcsSpec, Procedure, ground_station
+from ..px4._simulator import MissionNode, needs_images
+from ..rover._messages import MAX_SPEED
+from ._bridge import DOWNLINK, SERVO_TOPIC, TRUTH_TOPIC, UPLINK
+from ._frames import FRAME_RATE, copter_params, rover_params
+from ._launch import (
+    NO_RC_RECEIVER,
+    SITL,
+    ArduPilotNodes,
+    Vehicle,
+    check_params,
+    start_ardupilot,
+)
+
+if TYPE_CHECKING:
+    from ..docker import ContainerEnvironment, ContainerSimulator
+    from ..trace import TraceOptions
+    from ._faults import FaultsComponent
+
+__all__ = [
+    "BACKENDS",
+    "FIDELITIES",
+    "ArduPilotComponent",
+    "ArduPilotNode",
+    "ArduPilotSimulation",
+    "Backend",
+    "Copter",
+    "Fidelity",
+    "Rover",
+    "default_world",
+    "frame_period",
+]
+
+Fidelity = Literal["medium", "high"]
+Backend = Literal["process", "docker"]
+FIDELITIES: tuple[Fidelity, ...] = ("medium", "high")
+BACKENDS: tuple[Backend, ...] = ("process", "docker")
+FRAME_PERIOD = 1.0 / FRAME_RATE
+BOOT_STEP = 0.05  # s of simulated time between looks at ArduPilot's MAVLink link at start
+BOOT_LIMIT = 10.0  # s of simulated time ArduPilot gets to start speaking MAVLink
+
+# Medium: one MuJoCo step per physics frame. High: five, and more solver iterations (the
+# rover's contacts get more, as in the rover scenario).
+_WORLDS: dict[tuple[Vehicle, Fidelity], WorldConfig] = {
+    ("copter", "medium"): WorldConfig(timestep=FRAME_PERIOD, period=FRAME_PERIOD),
+    ("copter", "high"): WorldConfig(timestep=0.0005, iterations=100, period=FRAME_PERIOD),
+    ("rover", "medium"): WorldConfig(timestep=FRAME_PERIOD, period=FRAME_PERIOD),
+    ("rover", "high"): WorldConfig(timestep=0.0005, iterations=200, period=FRAME_PERIOD),
+}
+
+
+def default_world(vehicle: Vehicle, fidelity: Fidelity) -> WorldConfig:
+    """The world configuration ``vehicle`` uses at ``fidelity`` unless one is given."""
+    return _WORLDS[(vehicle, fidelity)]
+
+
+def frame_period(world: WorldConfig) -> float:
+    """The world's period under ArduPilot: one physics frame (2.5 ms), a whole number of steps.
+
+    ConfigurationError if ``world.timestep`` does not divide it.
+    """
+    steps = max(1, round(FRAME_PERIOD / world.timestep))
+    if abs(steps * world.timestep - FRAME_PERIOD) > 1e-9:
+        raise ConfigurationError(
+            "world.timestep",
+            world.timestep,
+            f"a divisor of ArduPilot's {FRAME_PERIOD * 1e3:g} ms physics frame "
+            f"({FRAME_RATE} Hz, its loop rate), e.g. 0.0025, 0.00125 or 0.0005",
+        )
+    return FRAME_PERIOD
+
+
+def _check_fidelity(fidelity: object) -> None:
+    if fidelity not in FIDELITIES:
+        raise ConfigurationError(
+            "fidelity",
+            fidelity,
+            "'medium' or 'high' (ArduPilot flies the MuJoCo world; there is no low fidelity)",
+        )
+
+
+@dataclasses.dataclass(frozen=True)
+class WorldComponent:
+    """The MuJoCo world with ``vehicle`` driven by ArduPilot, in this process."""
+
+    world: WorldConfig
+    vehicle: Vehicle
+    name: str = "world"
+
+    def start(self, environment: LocalEnvironment) -> Node:
+        """Build the world (MuJoCo loads here) and schedule it."""
+        world, vehicle = self.world, self.vehicle
+
+        def factory() -> Any:
+            from ..mujoco._world import World
+            from ._vehicles import ArduCopterVehicle, ArduRoverVehicle
+
+            plugin = ArduCopterVehicle() if vehicle == "copter" else ArduRoverVehicle()
+            return World(world, plugin)
+
+        return ParticipantComponent(factory, self.name).start(environment)
+
+
+class ArduPilotNode(MissionNode):
+    """The ArduPilot firmware node: ``send(Configuration) -> MissionResult`` flies a mission."""
+
+    _autopilot: ArduPilotNodes
+    _component: ArduPilotComponent
+
+    @property
+    def instance(self) -> int:
+        """ArduPilot's instance number (its ports are offset by ten times it)."""
+        return self._autopilot.instance
+
+    def check(self, msg: Configuration) -> None:
+        """Raise ConfigurationError if ``msg`` cannot be flown (or driven)."""
+        super().check(msg)
+        if self._component.vehicle == "rover" and msg.cruise_speed >= MAX_SPEED:
+            raise ConfigurationError(
+                "cruise_speed", msg.cruise_speed, f"below the rover's top speed ({MAX_SPEED:g} m/s)"
+            )
+
+
+@dataclasses.dataclass(frozen=True)
+class ArduPilotComponent:
+    """ArduPilot SITL with its JSON bridge and a ground station, for any ProcessSimulator.
+
+    ``vehicle`` is ``"copter"`` or ``"rover"``; ``firmware`` where ArduPilot comes from;
+    ``world`` where home is (ArduPilot's ``--home``) and what its physics period is;
+    ``params`` are set at boot, after the frame's (:mod:`._frames`); ``geofence`` bounds
+    missions. ArduPilot runs as a process, or as a container of ``firmware.image`` in a
+    ContainerSimulator; its bridge and the ground station run in this process.
+    """
+
+    vehicle: Vehicle
+    firmware: SITL
+    world: WorldConfig
+    name: str = "ardupilot"
+    geofence: Geofence = dataclasses.field(default_factory=Geofence)
+    params: dict[str, float] = dataclasses.field(default_factory=dict)
+    telemetry_rate: float = 20.0
+
+    def __post_init__(self) -> None:
+        if self.vehicle not in ("copter", "rover"):
+            raise ConfigurationError("vehicle", self.vehicle, "'copter' or 'rover'")
+        if not isinstance(self.firmware, SITL):
+            raise ConfigurationError("firmware", self.firmware, "a multicosim.ardupilot.SITL")
+        if not isinstance(self.world, WorldConfig):
+            raise ConfigurationError("world", self.world, "a multicosim.mujoco.WorldConfig")
+        if not isinstance(self.geofence, Geofence):
+            raise ConfigurationError("geofence", self.geofence, "a px4.Geofence")
+        rate = self.telemetry_rate
+        if isinstance(rate, bool) or not isinstance(rate, int | float) or not 10 <= rate <= 100:
+            raise ConfigurationError("telemetry_rate", rate, "10 to 100 Hz")
+        check_params(self.params)
+        self.firmware.check(self.vehicle)
+        frame_period(self.world)
+
+    def required_images(self) -> tuple[str, ...]:
+        """ArduPilot's image, if it runs in one (checked before a ContainerSimulator starts)."""
+        return (self.firmware.image,) if self.firmware.image is not None else ()
+
+    def boot_params(self) -> dict[str, float]:
+        """The parameters ArduPilot boots with: no RC receiver (``NO_RC_RECEIVER``), the
+        frame's, then ``params``, the firmware's."""
+        if self.vehicle == "copter":
+            from ..px4._airframe import NONE_IRIS
+
+            frame = copter_params(NONE_IRIS)
+        else:
+            frame = rover_params(MAX_SPEED)
+        return {**NO_RC_RECEIVER, **frame, **self.params, **self.firmware.params}
+
+    def procedure(self) -> Procedure:
+        """How the ground station flies this vehicle."""
+        from ._gcs import CopterProcedure, RoverProcedure
+
+        return CopterProcedure() if self.vehicle == "copter" else RoverProcedure()
+
+    def start(self, environment: LocalEnvironment) -> ArduPilotNode:
+        """Start ArduPilot and its bridge, then the ground station."""
+        name = self.name
+        group = start_ardupilot(
+            self.firmware,
+            self.vehicle,
+            environment,
+            name=name,
+            period=frame_period(self.world),
+            home=self.world.home,
+            params=self.boot_params(),
+            truth=self.world.topic("truth", TRUTH_TOPIC),
+            servos=SERVO_TOPIC,
+            uplink=UPLINK,
+            downlink=DOWNLINK,
+        )
+        try:
+            spec = GcsSpec(
+                uplink=UPLINK,
+                downlink=DOWNLINK,
+                truth=self.world.topic("truth", TRUTH_TOPIC),
+                period=1.0 / self.telemetry_rate,
+                # ArduPilot's estimator needs its GPS checks and gyro bias learnt (about 40
+                # simulated seconds) before it has a position and arms.
+                preflight_timeout=180.0,
+                dialect="ardupilotmega",
+            )
+            gcs = InProcessFirmwareComponent(
+                ground_station(spec, f"{name}.gcs", self.procedure()), name=f"{name}.gcs"
+            ).start(environment)
+        except BaseException:
+            group.stop()
+            raise
+        return ArduPilotNode(name, gcs, group, self)
+
+
+class ArduPilotSimulation(ScenarioSimulation):
+    """A running ArduPilot simulation: ``firmware`` flies missions, ``world`` is the physics."""
+
+    def __init__(
+        self,
+        simulation: ProcessSimulation,
+        firmware_id: NodeId[ArduPilotNode],
+        world_id: NodeId[Node],
+    ) -> None:
+        super().__init__(simulation)
+        self.firmware: ArduPilotNode = simulation.get(firmware_id)
+        self.world: Node = simulation.get(world_id)
+
+    def boot(self, limit: float = BOOT_LIMIT) -> None:
+        """Run the simulation until ArduPilot has booted: its MAVLink link speaks.
+
+        ArduPilot's first physics step comes while it loads its parameters: left waiting
+        there for seconds of wall time (while another simulation runs, say), it hangs in its
+        start-up. So the simulators run it through its start-up (a few tenths of a
+        simulated second) before handing the simulation out. NodeStartError, with its output
+        tail, if it has not spoken MAVLink within ``limit`` simulated seconds.
+        """
+        autopilot = self.firmware._autopilot
+        bridge = autopilot.bridge
+        assert bridge is not None
+        deadline = self.time + limit
+        while not bridge.linked:
+            if self.time >= deadline:
+                process = autopilot.process
+                raise NodeStartError(
+                    self.firmware.name,
+                    f"sent no MAVLink within {limit:g} simulated seconds of its start",
+                    log_tail=process.log_tail() if process is not None else "",
+                )
+            self.advance(BOOT_STEP)
+
+    @property
+    def home(self) -> Home:
+        """Where ArduPilot's home is (latitude, longitude, altitude AMSL): the world's origin."""
+        return self.firmware._component.world.home
+
+    def trace_options(self) -> TraceOptions:
+        """What a recorder of this simulation should know: the MAVLink link decoded, the
+        world's truth and ArduPilot's outputs typed, Foxglove channels."""
+        from ..px4._trace import mission_trace
+        from ._bridge import ServoOutputs
+
+        world = self.firmware._component.world
+        return mission_trace(
+            uplink=UPLINK,
+            downlink=DOWNLINK,
+            truth=world.topic("truth", TRUTH_TOPIC),
+            home=world.home,
+            types={SERVO_TOPIC: ServoOutputs},
+            dialect_name="ardupilotmega",
+        )
+
+    def flight_logs(self) -> list[Path]:
+        """ArduPilot's DataFlash logs so far (``logs/*.BIN``; MAVExplorer and UAV Log Viewer
+        read them). From a container they are copied into the run directory first."""
+        return self.firmware._autopilot.flight_logs(self.simulation.run_dir / "ardupilot-logs")
+
+
+class _ArduPilotSimulator:
+    """A Simulator with the MuJoCo world and ArduPilot already added."""
+
+    vehicle: Vehicle = "copter"
+
+    def __init__(
+        self,
+        world: WorldConfig | None = None,
+        *,
+        fidelity: Fidelity = "medium",
+        firmware_dir: str | None = None,
+        image: str | None = None,
+        firmware: SITL | None = None,
+        backend: Backend = "process",
+        seed: int = 0,
+        params: dict[str, float] | None = None,
+        geofence: Geofence | None = None,
+        telemetry_rate: float = 20.0,
+        realtime: float | None = None,
+        run_dir: str | None = None,
+    ) -> None:
+        _check_fidelity(fidelity)
+        if backend not in BACKENDS:
+            raise ConfigurationError("backend", backend, f"one of {BACKENDS}")
+        if firmware is None:
+            firmware = SITL(directory=firmware_dir, image=image)
+        elif firmware_dir is not None or image is not None:
+            raise ConfigurationError(
+                "firmware", firmware, "either firmware=SITL(...) or firmware_dir/image, not both"
+            )
+        if not isinstance(firmware, SITL):
+            raise ConfigurationError("firmware", firmware, "a multicosim.ardupilot.SITL")
+        if backend == "process" and firmware.directory is None:
+            raise ConfigurationError(
+                "firmware_dir",
+                None,
+                "ArduPilot SITL's directory on the process backend (an image runs on "
+                "backend='docker')",
+            )
+        world = world if world is not None else default_world(self.vehicle, fidelity)
+        if not isinstance(world, WorldConfig):
+            raise ConfigurationError("world", world, "a multicosim.mujoco.WorldConfig")
+        world = dataclasses.replace(world, period=frame_period(world))
+        self.world = world
+        self.fidelity: Fidelity = fidelity
+        self.backend: Backend = backend
+        self._sim: ProcessSimulator | ContainerSimulator
+        if backend == "docker":
+            from ..docker import ContainerSimulator
+
+            self._sim = ContainerSimulator(seed=seed, realtime=realtime, run_dir=run_dir)
+        else:
+            self._sim = ProcessSimulator(seed=seed, realtime=realtime, run_dir=run_dir)
+        self.world_id: NodeId[Node] = self._sim.add(WorldComponent(world, self.vehicle))
+        self._firmware = ArduPilotComponent(
+            self.vehicle,
+            firmware,
+            world,
+            geofence=geofence or Geofence(),
+            params=dict(params or {}),
+            telemetry_rate=telemetry_rate,
+        )
+        self.firmware_id: NodeId[ArduPilotNode] = self._sim.add(self._firmware)
+
+    @property
+    def firmware(self) -> SITL:
+        """Where ArduPilot comes from."""
+        return self._firmware.firmware
+
+    @property
+    def params(self) -> dict[str, float]:
+        """The parameters given to ArduPilot (besides the frame's)."""
+        return dict(self._firmware.params)
+
+    def add(self, component: Component[ContainerEnvironment, Any]) -> NodeId[Any]:
+        """Add another component (an injector, a monitor), stepped before ArduPilot's bridge."""
+        if self.backend != "docker" and needs_images(component):
+            raise ConfigurationError(
+                "component",
+                component,
+                "a component of the process backend (containers need backend='docker')",
+            )
+        return self._sim.add(
+            cast("Component[LocalEnvironment, Any]", component), before=self.firmware_id
+        )
+
+    def inject_faults(
+        self, sensor: str, models: Any, *, name: str | None = None
+    ) -> FaultsComponent:
+        """Have ArduPilot simulate ``models`` on ``sensor`` (``multicosim.attacks.inject``).
+
+        The models map onto ArduPilot's own simulated sensor faults (its ``SIM_GPS_*`` and
+        ``SIM_BARO_*`` parameters), set over MAVLink when each model's window opens.
+        """
+        from ._faults import FaultsComponent, FaultsConfig
+
+        config = FaultsConfig(
+            sensor=sensor,
+            models=tuple(models),
+            home=self.world.home,
+            uplink=UPLINK,
+            downlink=DOWNLINK,
+        )
+        component = FaultsComponent(config, name=name or f"{config.sensor}-faults")
+        self.add(component)
+        return component
+
+    def start(self) -> ArduPilotSimulation:
+        """Start the world and ArduPilot (and anything added); return the simulation."""
+        sitl = self._firmware.firmware
+        if self.backend == "docker" and sitl.image is None:
+            # ArduPilot in a container: its image is built from the directory (once; a
+            # build whose inputs did not change is skipped).
+            from ..docker import build_ardupilot
+
+            image = build_ardupilot(sitl.path)
+            self._firmware = dataclasses.replace(
+                self._firmware, firmware=dataclasses.replace(sitl, image=image)
+            )
+            self._sim.replace(self.firmware_id, self._firmware)
+        simulation = ArduPilotSimulation(self._sim.start(), self.firmware_id, self.world_id)
+        try:
+            simulation.boot()
+        except BaseException:
+            simulation.stop()
+            raise
+        return simulation
+
+    def __repr__(self) -> str:
+        return (
+            f"{type(self).__name__}(fidelity={self.fidelity!r}, backend={self.backend!r}, "
+            f"firmware={self.firmware!r})"
+        )
+
+
+class Copter(_ArduPilotSimulator):
+    """ArduCopter SITL flying our quadrotor (PX4's ``none_iris`` airframe) as its quad X.
+
+    ``ardupilot.Copter(world, fidelity="medium", firmware_dir=PATH)``: ``world`` a
+    :class:`~multicosim.mujoco.WorldConfig` (None: the fidelity's, see ``default_world``),
+    whose timestep must divide ArduPilot's 2.5 ms frame; ``firmware_dir`` ArduPilot SITL's
+    directory (``bin/arducopter``, ``params/copter.parm``), or ``image`` (``backend="docker"``)
+    or ``firmware=SITL(...)``; ``params`` ArduPilot parameters set at boot; ``seed`` fixes
+    every random source of the world. ``start()`` gives an :class:`ArduPilotSimulation`.
+    """
+
+    vehicle: Vehicle = "copter"
+
+
+class Rover(_ArduPilotSimulator):
+    """ArduRover SITL driving our Ackermann rover (steering and throttle outputs).
+
+    The same arguments as :class:`Copter`; ``firmware_dir`` needs ``bin/ardurover`` and
+    ``params/rover.parm``.
+    """
+
+    vehicle: Vehicle = "rover"

@@ -1,0 +1,152 @@
+"""Fixtures of the ArduPilot scenarios (registered by the multicosim plugin).
+
+``ardupilot_copter_simulation`` and ``ardupilot_rover_simulation`` are started
+:class:`multicosim.ardupilot.ArduPilotSimulation` s, real ArduCopter or ArduRover SITL on
+our MuJoCo worlds at the fidelity, backend and seed the options and the ``fidelity`` marker
+select, stopped when the test ends whatever happens::
+
+    @pytest.mark.fidelity("medium", "high")
+    def test_mission(ardupilot_copter_simulation):
+        home = ardupilot_copter_simulation.home
+        result = ardupilot_copter_simulation.firmware.send(ardupilot.Configuration([...]))
+        assert result.completed
+
+``ardupilot_copter_simulator`` / ``ardupilot_rover_simulator`` are the unstarted simulators
+(add injectors, or ``gps_noise``, before starting them); ``ardupilot_params`` can be
+overridden in a module or conftest. ArduPilot comes from ``--mcs-ardupilot-dir`` (its ini
+twin, or ``MCS_ARDUPILOT_DIR``): a directory with ``bin/arducopter``, ``bin/ardurover`` and
+``params/``; without one, the tests are skipped with the reason. ArduPilot flies the MuJoCo
+world only: at low fidelity they are skipped too. With ``--mcs-backend=docker`` ArduPilot
+runs in a container of an image built from that directory. Heavy imports happen inside the
+fixtures.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import TYPE_CHECKING, Any
+
+import pytest
+
+from .plugin import _TrackedSimulator
+
+if TYPE_CHECKING:
+    from multicosim.ardupilot import ArduPilotSimulation, Copter, Rover
+
+__all__ = [
+    "ardupilot_copter_simulation",
+    "ardupilot_copter_simulator",
+    "ardupilot_dir",
+    "ardupilot_params",
+    "ardupilot_rover_simulation",
+    "ardupilot_rover_simulator",
+    "configured_dir",
+]
+
+
+def configured_dir(config: pytest.Config) -> str | None:
+    """ArduPilot's SITL directory for this run: the option, its ini twin, the environment."""
+    value = config.getoption("mcs_ardupilot_dir") or config.getini("mcs_ardupilot_dir")
+    return str(value) if value else os.environ.get("MCS_ARDUPILOT_DIR") or None
+
+
+@pytest.fixture
+def ardupilot_dir(request: pytest.FixtureRequest) -> str:
+    """The configured ArduPilot SITL directory; skips the test with the reason if none is."""
+    directory = configured_dir(request.config)
+    if directory is None:
+        pytest.skip(
+            "no ArduPilot SITL configured: give --mcs-ardupilot-dir (a directory with "
+            "bin/arducopter, bin/ardurover and params/, such as ArduPilot's build/sitl "
+            "binaries with Tools/autotest/default_params) or MCS_ARDUPILOT_DIR"
+        )
+    return directory
+
+
+@pytest.fixture
+def ardupilot_params() -> dict[str, float]:
+    """ArduPilot parameters set at boot (names as ArduPilot's: ``WPNAV_SPEED_UP``, ...)."""
+    return {}
+
+
+def _simulator(
+    request: pytest.FixtureRequest,
+    vehicle: str,
+    fidelity: str,
+    backend: str,
+    seed: int,
+    simulations: Any,
+    params: dict[str, float],
+) -> Any:
+    from multicosim.ardupilot import BACKENDS, Copter, Rover
+
+    if fidelity == "low":
+        pytest.skip(
+            "ArduPilot flies the MuJoCo world (medium, high fidelity); there is no low "
+            "fidelity ArduPilot"
+        )
+    if backend not in BACKENDS:
+        pytest.skip(f"the ArduPilot scenarios do not run on the {backend!r} backend")
+    directory = request.getfixturevalue("ardupilot_dir")
+    if backend == "docker":
+        request.getfixturevalue("mcs_runtime_image")
+    cls = Copter if vehicle == "copter" else Rover
+    simulator = cls(
+        fidelity=fidelity,  # type: ignore[arg-type]  # validated by the simulator
+        firmware_dir=directory,
+        backend=backend,
+        seed=seed,
+        params=params,
+    )
+    return _TrackedSimulator(simulator, simulations)
+
+
+@pytest.fixture
+def ardupilot_copter_simulator(
+    request: pytest.FixtureRequest,
+    mcs_fidelity: str,
+    mcs_backend: str,
+    mcs_seed: int,
+    mcs_simulations: Any,
+    ardupilot_params: dict[str, float],
+) -> Copter:
+    """An unstarted ArduCopter simulator; whatever it starts is stopped at teardown."""
+    simulator: Copter = _simulator(
+        request, "copter", mcs_fidelity, mcs_backend, mcs_seed, mcs_simulations, ardupilot_params
+    )
+    return simulator
+
+
+@pytest.fixture
+def ardupilot_copter_simulation(ardupilot_copter_simulator: Copter) -> ArduPilotSimulation:
+    """A started ArduCopter simulation (world, ArduCopter, ground station); always stopped."""
+    return ardupilot_copter_simulator.start()
+
+
+@pytest.fixture
+def ardupilot_rover_simulator(
+    request: pytest.FixtureRequest,
+    mcs_fidelity: str,
+    mcs_backend: str,
+    mcs_seed: int,
+    mcs_simulations: Any,
+    ardupilot_params: dict[str, float],
+) -> Rover:
+    """An unstarted ArduRover simulator; whatever it starts is stopped at teardown."""
+    simulator: Rover = _simulator(
+        request, "rover", mcs_fidelity, mcs_backend, mcs_seed, mcs_simulations, ardupilot_params
+    )
+    return simulator
+
+
+@pytest.fixture
+def ardupilot_rover_simulation(ardupilot_rover_simulator: Rover) -> ArduPilotSimulation:
+    """A started ArduRover simulation (world, ArduRover, ground station); always stopped."""
+    return ardupilot_rover_simulator.start()
+
+
+def pytest_report_header(config: pytest.Config) -> str | None:
+    directory = configured_dir(config)
+    if directory is None:
+        return None
+    return f"multicosim ardupilot: real ArduPilot SITL from {directory}"
