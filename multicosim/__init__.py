@@ -12,15 +12,21 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from ._errors import (
+    CampaignInterrupted,
     ConfigurationError,
     DependencyMissingError,
+    EngineUnavailableError,
+    FormulaError,
+    ImageMissingError,
     MessageTypeError,
     MulticosimError,
     NodeCrashedError,
     NodeError,
     NodeStartError,
     NodeTimeoutError,
+    PhysicsDivergedError,
     RemoteError,
+    RequirementViolation,
     SimulationStopped,
     TraceError,
     TransportError,
@@ -64,11 +70,11 @@ _LAZY = {
     "ContainerSimulator": ".docker",
     "FirmwareComponent": ".docker",
     "Requirement": ".requirements",
-    "RequirementViolation": ".requirements",
 }
 
 __all__ = [
     "AttachedComponent",
+    "CampaignInterrupted",
     "CommunicationNode",
     "Component",
     "ConfigurationError",
@@ -77,12 +83,15 @@ __all__ = [
     "ContainerSimulation",
     "ContainerSimulator",
     "DependencyMissingError",
+    "EngineUnavailableError",
     "Firmware",
     "FirmwareComponent",
     "FirmwareContext",
     "FirmwareNode",
     "FirmwareProcessComponent",
     "FirmwareThreadComponent",
+    "FormulaError",
+    "ImageMissingError",
     "InProcessFirmwareComponent",
     "InProcessFirmwareNode",
     "InProcessSimulation",
@@ -100,6 +109,7 @@ __all__ = [
     "Participant",
     "ParticipantComponent",
     "ParticipantNode",
+    "PhysicsDivergedError",
     "ProcessComponent",
     "ProcessNode",
     "ProcessSimulation",
@@ -157,7 +167,7 @@ if TYPE_CHECKING:
         ContainerSimulator,
         FirmwareComponent,
     )
-    from .requirements import Requirement, RequirementViolation
+    from .requirements import Requirement
 
 
 def __getattr__(name: str) -> Any:

@@ -56,7 +56,7 @@ import msgspec
 import numpy as np
 
 from ._deps import require
-from ._errors import ConfigurationError
+from ._errors import CampaignInterrupted, ConfigurationError
 from ._progress import ProgressBar, wanted
 from .requirements import Evaluation, Requirement
 
@@ -719,14 +719,6 @@ class CampaignResult:
             f"{len(self.retries)} retries, {self.wall_time:.2f} s "
             f"({self.rate_per_minute:.0f} simulations/min)"
         )
-
-
-class CampaignInterrupted(KeyboardInterrupt):
-    """Ctrl-C stopped the campaign; ``result`` holds the samples that had finished."""
-
-    def __init__(self, result: CampaignResult) -> None:
-        self.result = result
-        super().__init__(f"campaign interrupted after {len(result.results)} samples")
 
 
 def _status(results: Sequence[SampleResult], retries: int) -> str:

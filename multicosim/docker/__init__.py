@@ -20,8 +20,8 @@ _LAZY = {
     "FirmwareComponent": "._components",
     "ContainerSimulation": "._simulator",
     "ContainerSimulator": "._simulator",
-    "EngineUnavailableError": "._engine",
-    "ImageMissingError": "._engine",
+    "EngineUnavailableError": ".._errors",
+    "ImageMissingError": ".._errors",
     "BASE_IMAGE": "._images",
     "RUNTIME_IMAGE": "._images",
     "PX4_IMAGE": "._images",
@@ -61,6 +61,8 @@ __all__ = [
 ]
 
 if TYPE_CHECKING:
+    from .._errors import EngineUnavailableError as EngineUnavailableError
+    from .._errors import ImageMissingError as ImageMissingError
     from ._components import AttachedComponent as AttachedComponent
     from ._components import AttachedNode as AttachedNode
     from ._components import ContainerComponent as ContainerComponent
@@ -69,8 +71,6 @@ if TYPE_CHECKING:
     from ._components import ContainerLimits as ContainerLimits
     from ._components import ContainerNode as ContainerNode
     from ._components import FirmwareComponent as FirmwareComponent
-    from ._engine import EngineUnavailableError as EngineUnavailableError
-    from ._engine import ImageMissingError as ImageMissingError
     from ._images import ARDUPILOT_IMAGE as ARDUPILOT_IMAGE
     from ._images import BASE_IMAGE as BASE_IMAGE
     from ._images import PX4_IMAGE as PX4_IMAGE

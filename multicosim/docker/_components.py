@@ -25,7 +25,13 @@ from typing import Any, Generic, Literal, Protocol, TypeVar
 from .. import _wire as wire
 from .._clock import Scheduler
 from .._environment import LocalEnvironment
-from .._errors import ConfigurationError, NodeCrashedError, NodeStartError, NodeTimeoutError
+from .._errors import (
+    ConfigurationError,
+    NodeCrashedError,
+    NodeStartError,
+    NodeTimeoutError,
+    translate,
+)
 from .._firmware import FirmwareNode, check_types
 from .._interfaces import Node
 from .._processes import split_command
@@ -395,7 +401,7 @@ def _launch(
             detach=True,
         )
     except APIError as exc:
-        raise NodeStartError(name, f"could not be created: {exc.explanation or exc}") from exc
+        raise translate(exc, name=name) or exc from exc
     container = environment.client.containers.prepare_model({"Id": created["Id"], "Name": cname})
     node = ContainerNode(
         container,

@@ -8,7 +8,11 @@ import socket
 import uuid
 from typing import Any
 
-from .._errors import DependencyMissingError, MulticosimError, NodeStartError
+from .._errors import (
+    DependencyMissingError,
+    EngineUnavailableError,
+    ImageMissingError,
+)
 from .._rundirs import boot_id, start_time
 
 try:
@@ -24,8 +28,6 @@ __all__ = [
     "LABEL_RUN",
     "LABEL_SESSION",
     "APIError",
-    "EngineUnavailableError",
-    "ImageMissingError",
     "ImageNotFound",
     "NotFound",
     "client",
@@ -49,14 +51,6 @@ _START_HINT = (
     "start it with `sudo setsid nohup dockerd >/tmp/dockerd.log 2>&1 </dev/null &` "
     "(or `sudo systemctl start docker`); `.ci/docker.sh` installs and starts it"
 )
-
-
-class EngineUnavailableError(MulticosimError):
-    """The Docker engine cannot be reached (not installed, not running or no permission)."""
-
-
-class ImageMissingError(NodeStartError):
-    """A component's image is not present locally (multicosim never pulls images)."""
 
 
 def _engine_url() -> str:

@@ -15,7 +15,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
-from .._errors import DependencyMissingError, MulticosimError
+from .._errors import DependencyMissingError, MulticosimError, PhysicsDivergedError
 from ..geo import local_to_geodetic
 from ._config import WorldConfig, check_sensor_topics
 
@@ -30,7 +30,7 @@ try:
 except ImportError as exc:  # pragma: no cover - depends on the installation
     raise DependencyMissingError("mujoco", "mujoco") from exc
 
-__all__ = ["MODELS", "Physics", "PhysicsDivergedError", "Vehicle", "World"]
+__all__ = ["MODELS", "Physics", "Vehicle", "World"]
 
 log = logging.getLogger(__name__)
 
@@ -156,10 +156,6 @@ def load_model(path: str | os.PathLike[str]) -> Any:
         return mujoco.MjModel.from_xml_path(os.fspath(path))
     except ValueError as exc:
         raise MulticosimError(f"could not load the MJCF model {path}: {exc}") from exc
-
-
-class PhysicsDivergedError(MulticosimError):
-    """MuJoCo's integration diverged (NaN or huge accelerations) under this configuration."""
 
 
 class Vehicle(Protocol):
