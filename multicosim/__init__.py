@@ -31,6 +31,7 @@ from ._errors import (
     TraceError,
     TransportError,
 )
+from ._fidelity import FIDELITIES, Fidelity
 from ._interfaces import CommunicationNode, Component, Node, NodeId, Simulation, Simulator
 from ._messages import Message
 
@@ -73,6 +74,7 @@ _LAZY = {
 }
 
 __all__ = [
+    "FIDELITIES",
     "AttachedComponent",
     "CampaignInterrupted",
     "CommunicationNode",
@@ -84,6 +86,7 @@ __all__ = [
     "ContainerSimulator",
     "DependencyMissingError",
     "EngineUnavailableError",
+    "Fidelity",
     "Firmware",
     "FirmwareComponent",
     "FirmwareContext",

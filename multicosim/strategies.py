@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING, Any, TypeVar
 
 from ._deps import require
 from ._errors import ConfigurationError
+from ._fidelity import FIDELITIES, check_fidelity
 
 require("hypothesis", "hypothesis")
 
@@ -40,7 +41,6 @@ if TYPE_CHECKING:
     from .rover import Mission
 
 __all__ = [
-    "FIDELITY_LEVELS",
     "FreshSimulations",
     "check_range",
     "fidelities",
@@ -52,7 +52,6 @@ __all__ = [
 ]
 
 T = TypeVar("T")
-FIDELITY_LEVELS = ("low", "medium", "high")
 Range = tuple[float, float]
 
 
@@ -89,12 +88,12 @@ def _simple_first(simple: T, strategy: st.SearchStrategy[T]) -> st.SearchStrateg
     return st.one_of(st.just(simple), strategy)
 
 
-def fidelities(levels: Sequence[str] = FIDELITY_LEVELS) -> st.SearchStrategy[str]:
+def fidelities(levels: Sequence[str] = FIDELITIES) -> st.SearchStrategy[str]:
     """A fidelity level among ``levels``; shrinks towards the first (the cheapest)."""
     levels = tuple(levels)
-    bad = [level for level in levels if level not in FIDELITY_LEVELS]
+    bad = [level for level in levels if level not in FIDELITIES]
     if not levels or bad:
-        raise ConfigurationError("levels", levels, f"one or more of {FIDELITY_LEVELS}")
+        raise ConfigurationError("levels", levels, f"one or more of {FIDELITIES}")
     return st.sampled_from(levels)
 
 
@@ -284,8 +283,8 @@ class FreshSimulations:
     """
 
     def __init__(self, *, fidelity: str | None = None, seed: int | None = None) -> None:
-        if fidelity is not None and fidelity not in FIDELITY_LEVELS:
-            raise ConfigurationError("fidelity", fidelity, f"one of {FIDELITY_LEVELS}")
+        if fidelity is not None:
+            check_fidelity(fidelity)
         if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or seed < 0):
             raise ConfigurationError("seed", seed, "a non-negative integer")
         self.fidelity = fidelity

@@ -27,12 +27,12 @@ from typing import Any, TypeVar
 import pytest
 
 from multicosim._errors import MulticosimError
+from multicosim._fidelity import FIDELITIES
 
 from ._signals import SigtermAsInterrupt
 
 __all__ = [
     "BACKENDS",
-    "FIDELITY_LEVELS",
     "FIXTURE_LIBRARIES",
     "KEEP_TRACES",
     "Settings",
@@ -42,7 +42,6 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
-FIDELITY_LEVELS = ("low", "medium", "high")
 BACKENDS = ("process", "docker")
 KEEP_TRACES = ("failed", "all", "none")
 _ARTIFACTS_DEFAULT = "mcs-artifacts"
@@ -185,12 +184,12 @@ def _value(config: pytest.Config, name: str) -> tuple[str, str]:
 def parse_fidelity(text: str, source: str = "--mcs-fidelity") -> tuple[str, ...]:
     """Parse a comma list of fidelity levels; raise UsageError naming the allowed values."""
     levels = tuple(part.strip() for part in text.split(",") if part.strip())
-    bad = [level for level in levels if level not in FIDELITY_LEVELS]
+    bad = [level for level in levels if level not in FIDELITIES]
     if not levels or bad:
         raise pytest.UsageError(
             f"{source}: {text!r} names no known fidelity level "
             f"({', '.join(map(repr, bad)) or 'none given'}); "
-            f"allowed: {', '.join(FIDELITY_LEVELS)} (or a comma list of them)"
+            f"allowed: {', '.join(FIDELITIES)} (or a comma list of them)"
         )
     return tuple(dict.fromkeys(levels))
 
@@ -393,7 +392,7 @@ def pytest_generate_tests(metafunc: pytest.Metafunc) -> None:
     if marker is None and not wanted:
         return
     settings = metafunc.config.stash[settings_key]
-    listed: tuple[str, ...] = FIDELITY_LEVELS
+    listed: tuple[str, ...] = FIDELITIES
     if marker is not None:
         # A collection error names the test and its marker without a traceback through
         # pytest's internals; the run stops like on any other collection error.
@@ -401,8 +400,7 @@ def pytest_generate_tests(metafunc: pytest.Metafunc) -> None:
         where = f"@pytest.mark.fidelity({args}) on {metafunc.definition.nodeid}"
         if not marker.args or not all(isinstance(a, str) for a in marker.args):
             raise pytest.Collector.CollectError(
-                f"{where}: give one or more levels as strings; "
-                f"allowed: {', '.join(FIDELITY_LEVELS)}"
+                f"{where}: give one or more levels as strings; allowed: {', '.join(FIDELITIES)}"
             )
         try:
             listed = parse_fidelity(",".join(marker.args), source=where)

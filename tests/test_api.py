@@ -17,6 +17,8 @@ EXPECTED = {
     "ContainerSimulator",
     "CampaignInterrupted",
     "EngineUnavailableError",
+    "FIDELITIES",
+    "Fidelity",
     "FormulaError",
     "ImageMissingError",
     "PhysicsDivergedError",

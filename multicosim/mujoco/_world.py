@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
 from .._errors import DependencyMissingError, MulticosimError, PhysicsDivergedError
-from ..geo import local_to_geodetic
+from ..geo import GRAVITY, local_to_geodetic
 from ._config import WorldConfig, check_sensor_topics
 
 if TYPE_CHECKING:
@@ -84,6 +84,7 @@ class Physics:
         opt.solver = _SOLVERS[config.solver]
         opt.iterations = config.iterations
         opt.magnetic[:] = config.magnetic_field
+        opt.gravity[:] = (0.0, 0.0, -GRAVITY)
         _route_warnings()
         self.data = mujoco.MjData(model)
         self._steps = 0

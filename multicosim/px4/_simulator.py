@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING, Any, Literal, cast
 import msgspec
 
 from .._errors import ConfigurationError, MessageTypeError, MulticosimError
+from .._fidelity import FIDELITIES, Fidelity, check_fidelity
 from .._interfaces import Component, Node, NodeId
 from .._local import (
     InProcessFirmwareComponent,
@@ -77,9 +78,7 @@ __all__ = [
     "default_world",
 ]
 
-Fidelity = Literal["low", "medium", "high"]
 Backend = Literal["process", "docker"]
-FIDELITIES: tuple[Fidelity, ...] = ("low", "medium", "high")
 BACKENDS: tuple[Backend, ...] = ("process", "docker")
 LOW_PERIOD = 0.1  # a 10 Hz loop suffices for a point mass and keeps a minute of flight >= 1000x
 # High fidelity: the same 100 Hz lockstep, with the rigid body integrated four times finer
@@ -96,11 +95,6 @@ def sitl_period(world: MuJoCo) -> float:
     """The world period real PX4 gets its sensors at: the timestep multiple nearest 250 Hz."""
     steps = max(1, round(1.0 / SENSOR_RATE / world.timestep))
     return round(world.timestep * steps, 9)
-
-
-def _check_fidelity(fidelity: object) -> None:
-    if fidelity not in FIDELITIES:
-        raise ConfigurationError("fidelity", fidelity, "'low', 'medium' or 'high'")
 
 
 def _check_image(image: object) -> None:
@@ -161,7 +155,7 @@ class WorldComponent:
     image: str | None = None
 
     def __post_init__(self) -> None:
-        _check_fidelity(self.fidelity)
+        check_fidelity(self.fidelity)
         if not isinstance(self.world, MuJoCo):
             raise ConfigurationError("world", self.world, "a px4.MuJoCo configuration")
         _check_image(self.image)
@@ -303,7 +297,7 @@ class PX4Component:
         return 10.0 if self.fidelity == "low" else 20.0
 
     def __post_init__(self) -> None:
-        _check_fidelity(self.fidelity)
+        check_fidelity(self.fidelity)
         if not isinstance(self.world, MuJoCo):
             raise ConfigurationError("world", self.world, "a px4.MuJoCo configuration")
         if not isinstance(self.geofence, Geofence):
@@ -479,7 +473,7 @@ class PX4:
         run_dir: str | None = None,
         firmware: SITL | None = None,
     ) -> None:
-        _check_fidelity(fidelity)
+        check_fidelity(fidelity)
         world = world if world is not None else default_world(fidelity)
         if not isinstance(world, MuJoCo):
             raise ConfigurationError("world", world, "a px4.MuJoCo configuration")

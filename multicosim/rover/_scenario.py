@@ -33,6 +33,7 @@ import math
 from typing import TYPE_CHECKING, Any, Literal, TypeVar, cast, overload
 
 from .._errors import ConfigurationError
+from .._fidelity import FIDELITIES, Fidelity, check_fidelity
 from .._interfaces import CommunicationNode, Component, Node, NodeId
 from .._local import (
     FirmwareProcessComponent,
@@ -71,9 +72,7 @@ __all__ = [
 
 NodeT = TypeVar("NodeT", bound=Node)
 
-Fidelity = Literal["low", "medium", "high"]
 Backend = Literal["process", "docker"]
-FIDELITIES: tuple[Fidelity, ...] = ("low", "medium", "high")
 BACKENDS: tuple[Backend, ...] = ("process", "docker")
 
 WORLD_NAME = "world"
@@ -287,8 +286,7 @@ class Rover:
         *,
         realtime: float | None = None,
     ) -> None:
-        if fidelity not in FIDELITIES:
-            raise ConfigurationError("fidelity", fidelity, f"one of {FIDELITIES}")
+        check_fidelity(fidelity)
         _check_backend(backend)
         if world is not None and not isinstance(world, WorldConfig):
             raise ConfigurationError("world", world, "a multicosim.mujoco.WorldConfig or None")

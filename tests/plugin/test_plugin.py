@@ -14,7 +14,8 @@ import pytest
 from mcs_programs import process_gone
 from plugin_helpers import write_ini
 
-from pytest_multicosim.plugin import BACKENDS, FIDELITY_LEVELS, KEEP_TRACES
+from multicosim._fidelity import FIDELITIES
+from pytest_multicosim.plugin import BACKENDS, KEEP_TRACES
 
 # -- options and their ini twins ------------------------------------------------------------
 
@@ -174,7 +175,7 @@ def test_allowed_values_match_the_help(pytester: pytest.Pytester) -> None:
     for name in ("mcs_fidelity", "mcs_backend", "mcs_seed", "mcs_artifacts", "mcs_keep_traces"):
         result.stdout.fnmatch_lines([f"  {name} (string)*"])
     text = result.stdout.str()
-    assert all(level in text for level in FIDELITY_LEVELS + BACKENDS + KEEP_TRACES)
+    assert all(level in text for level in FIDELITIES + BACKENDS + KEEP_TRACES)
 
 
 def test_report_header(pytester: pytest.Pytester) -> None:
