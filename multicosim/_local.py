@@ -45,6 +45,8 @@ from ._simulators import (
     ProcessSimulation,
     ProcessSimulator,
     config_json,
+    participant_command,
+    required_images,
 )
 from ._waits import (
     DEFAULT_SEND_TIMEOUT,
@@ -83,6 +85,8 @@ __all__ = [
     "crashed",
     "default_name",
     "mark_reported",
+    "participant_command",
+    "required_images",
     "runs_directory",
     "sweep_stale_runs",
 ]

@@ -274,3 +274,17 @@ class InProcessSimulator:
 def config_json(config: object) -> str:
     """A configuration object as JSON, for passing to a component process on its command line."""
     return msgspec.json.encode(config).decode()
+
+
+def participant_command(factory: str, config: object) -> list[str]:
+    """The command line (after ``python -m``) of participant ``factory`` given ``config``.
+
+    The same in a process and in the runtime image, which has ``multicosim`` on its path.
+    """
+    return ["multicosim", "participant", factory, "--config", config_json(config)]
+
+
+def required_images(component: object) -> list[str]:
+    """The images ``component`` runs (empty for one that runs no container)."""
+    images = getattr(component, "required_images", None)
+    return list(images()) if callable(images) else []

@@ -29,12 +29,13 @@ from .._local import (
     ProcessSimulation,
     ProcessSimulator,
     ScenarioSimulation,
+    required_images,
 )
 from ..geo import Home
 from ..mujoco._config import WorldConfig
 from ..px4._config import Configuration, Geofence
 from ..px4._gcs import GcsSpec, Procedure, ground_station
-from ..px4._simulator import MissionNode, needs_images
+from ..px4._simulator import MissionNode
 from ..rover._messages import MAX_SPEED
 from ._bridge import DOWNLINK, SERVO_TOPIC, TRUTH_TOPIC, UPLINK
 from ._frames import FRAME_RATE, copter_params, rover_params
@@ -387,7 +388,7 @@ class _ArduPilotSimulator:
 
     def add(self, component: Component[ContainerEnvironment, Any]) -> NodeId[Any]:
         """Add another component (an injector, a monitor), stepped before ArduPilot's bridge."""
-        if self.backend != "docker" and needs_images(component):
+        if self.backend != "docker" and required_images(component):
             raise ConfigurationError(
                 "component",
                 component,

@@ -8,19 +8,17 @@ import socket
 import uuid
 from typing import Any
 
+from .._deps import require
 from .._errors import (
-    DependencyMissingError,
     EngineUnavailableError,
     ImageMissingError,
 )
 from .._rundirs import boot_id, start_time
 
-try:
-    import docker
-    import docker.errors
-    from docker.errors import APIError, ImageNotFound, NotFound
-except ImportError as exc:  # pragma: no cover - exercised only without the extra
-    raise DependencyMissingError("docker", "docker") from exc
+require("docker", "docker")
+import docker  # noqa: E402 - after the check, which names the extra
+import docker.errors  # noqa: E402
+from docker.errors import APIError, ImageNotFound, NotFound  # noqa: E402
 
 __all__ = [
     "LABEL_COMPONENT",

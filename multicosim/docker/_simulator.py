@@ -10,7 +10,7 @@ from .._clock import Scheduler
 from .._errors import MulticosimError
 from .._interfaces import Node
 from .._rundirs import remove_tree
-from .._simulators import LocalSimulatorBase, ProcessSimulation
+from .._simulators import LocalSimulatorBase, ProcessSimulation, required_images
 from ._components import ContainerEnvironment, ContainerNode
 from ._engine import LABEL_RUN, APIError, NotFound, client, labels, require_image
 
@@ -72,8 +72,7 @@ class ContainerSimulator(LocalSimulatorBase[ContainerEnvironment]):
         api = docker_client.api
         # Check every image first: a missing one fails before anything is created.
         for node_id, component in self._components:
-            images = getattr(component, "required_images", None)
-            for image in images() if callable(images) else ():
+            for image in required_images(component):
                 require_image(api, image, node_id.name)
 
         run_id, run_dir = self._new_run()

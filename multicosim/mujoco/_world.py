@@ -15,7 +15,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
-from .._errors import DependencyMissingError, MulticosimError, PhysicsDivergedError
+from .._deps import require
+from .._errors import MulticosimError, PhysicsDivergedError
 from ..geo import GRAVITY, local_to_geodetic
 from ._config import WorldConfig, check_sensor_topics
 
@@ -25,10 +26,8 @@ if TYPE_CHECKING:
 
     from .._runtime import StepContext
 
-try:
-    import mujoco
-except ImportError as exc:  # pragma: no cover - depends on the installation
-    raise DependencyMissingError("mujoco", "mujoco") from exc
+require("mujoco", "mujoco")
+import mujoco  # noqa: E402 - after the check, which names the extra
 
 __all__ = ["MODELS", "Physics", "Vehicle", "World"]
 

@@ -42,6 +42,8 @@ from .._local import (
     ProcessSimulation,
     ProcessSimulator,
     ScenarioSimulation,
+    participant_command,
+    required_images,
 )
 from .._messages import type_name
 from ._autopilot import Autopilot, AutopilotSpec
@@ -110,18 +112,7 @@ def _in_process(fidelity: str, process: bool | None) -> bool:
 
 
 def _participant_command(factory: str, spec: msgspec.Struct) -> list[str]:
-    return [sys.executable, "-m", *_program(factory, spec)]
-
-
-def needs_images(component: object) -> bool:
-    """Whether ``component`` runs containers (it names images it needs)."""
-    images = getattr(component, "required_images", None)
-    return callable(images) and bool(images())
-
-
-def _program(factory: str, spec: msgspec.Struct) -> list[str]:
-    """The participant program's command, as the runtime image runs it."""
-    return ["multicosim", "participant", factory, "--config", msgspec.json.encode(spec).decode()]
+    return [sys.executable, "-m", *participant_command(factory, spec)]
 
 
 def _start_participant(
@@ -136,7 +127,9 @@ def _start_participant(
         raise ConfigurationError(
             "image", image, "None outside a ContainerSimulator (containers need its network)"
         )
-    return ContainerComponent(image, _program(factory, spec), name=name).start(environment)
+    return ContainerComponent(image, participant_command(factory, spec), name=name).start(
+        environment
+    )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -557,7 +550,7 @@ class PX4:
 
         Any component runs on the docker backend; container components need it.
         """
-        if self.backend != "docker" and needs_images(component):
+        if self.backend != "docker" and required_images(component):
             raise ConfigurationError(
                 "component",
                 component,

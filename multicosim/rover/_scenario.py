@@ -44,7 +44,8 @@ from .._local import (
     ProcessSimulation,
     ProcessSimulator,
     ScenarioSimulation,
-    config_json,
+    participant_command,
+    required_images,
 )
 from ..mujoco._config import WorldConfig
 from ._controller import controller
@@ -123,13 +124,7 @@ def world_command(
     factory = (
         "multicosim.rover:kinematic_world" if fidelity == "low" else "multicosim.mujoco:rover_world"
     )
-    return ["multicosim", "participant", factory, "--config", config_json(config)]
-
-
-def _needs_images(component: object) -> bool:
-    """Whether ``component`` runs containers (it names images it needs)."""
-    images = getattr(component, "required_images", None)
-    return callable(images) and bool(images())
+    return participant_command(factory, config)
 
 
 def _check_backend(backend: object) -> None:
@@ -318,7 +313,7 @@ class Rover:
 
         Any component runs on the docker backend; container components need it.
         """
-        if self.backend != "docker" and _needs_images(component):
+        if self.backend != "docker" and required_images(component):
             raise ConfigurationError(
                 "component",
                 component,

@@ -17,16 +17,13 @@ from __future__ import annotations
 import math
 from typing import Any
 
-try:
-    from hypothesis import strategies as st
-except ImportError as exc:  # pragma: no cover - depends on the installation
-    from .._errors import DependencyMissingError
-
-    raise DependencyMissingError("hypothesis", "hypothesis") from exc
-
+from .._deps import require
 from ..mujoco._config import INTEGRATORS, SOLVERS, WorldConfig
 from ._messages import MAX_SPEED, MAX_STEERING, SENSOR_TOPICS, Mission
 from ._vehicle import SensorNoise
+
+require("hypothesis", "hypothesis")
+from hypothesis import strategies as st  # noqa: E402 - after the check, which names the extra
 
 __all__ = ["missions", "sensor_noise", "world_configs"]
 
