@@ -22,7 +22,7 @@ import shutil
 import tempfile
 from collections.abc import Generator, Iterator
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
 import pytest
 
@@ -30,6 +30,10 @@ from multicosim._errors import MulticosimError
 from multicosim._fidelity import FIDELITIES
 
 from ._signals import SigtermAsInterrupt
+
+if TYPE_CHECKING:
+    from multicosim._local import ProcessSimulator
+    from multicosim.docker import ContainerSimulator
 
 __all__ = [
     "BACKENDS",
@@ -53,6 +57,13 @@ FIXTURE_LIBRARIES = (
 )
 
 SimT = TypeVar("SimT")
+
+
+class _Simulator(Protocol):
+    def start(self) -> Any: ...
+
+
+SimulatorT = TypeVar("SimulatorT", bound=_Simulator)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -536,23 +547,20 @@ def mcs_simulations(request: pytest.FixtureRequest) -> Iterator[_TestSimulations
 _view_key = pytest.StashKey[_TestSimulations]()
 
 
-class _TrackedSimulator:
-    """A simulator whose simulations the test stops at teardown."""
+def tracked(simulator: SimulatorT, simulations: _TestSimulations) -> SimulatorT:
+    """``simulator`` itself, whose ``start`` hands each simulation to ``simulations``.
 
-    def __init__(self, inner: Any, view: _TestSimulations) -> None:
-        self._inner = inner
-        self._view = view
+    The fixtures return the simulator itself, not a proxy, so that it is an instance of its
+    own class; what it starts is stopped (and recorded) as the test ends.
+    """
+    start = simulator.start
 
-    def add(self, component: Any) -> Any:
-        """Add ``component`` to the wrapped simulator."""
-        return self._inner.add(component)
+    def start_tracked() -> Any:
+        return simulations.track(start())
 
-    def start(self) -> Any:
-        """Start the simulation; it is stopped when the test ends."""
-        return self._view.start(self._inner)
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self._inner, name)
+    # An instance attribute, not a method assignment: it shadows the class's own start.
+    setattr(simulator, "start", start_tracked)  # noqa: B010
+    return simulator
 
 
 def require_docker() -> None:
@@ -601,18 +609,18 @@ def mcs_runtime_image() -> str:
 @pytest.fixture
 def mcs_simulator(
     mcs_backend: str, mcs_seed: int, mcs_simulations: _TestSimulations
-) -> _TrackedSimulator:
+) -> ProcessSimulator | ContainerSimulator:
     """A fresh simulator of the selected backend, seeded; its simulation always stops."""
     if mcs_backend == "docker":
         require_docker()
         from multicosim.docker import ContainerSimulator
 
-        inner: Any = ContainerSimulator(seed=mcs_seed)
+        inner: ProcessSimulator | ContainerSimulator = ContainerSimulator(seed=mcs_seed)
     else:
         from multicosim._local import ProcessSimulator
 
         inner = ProcessSimulator(seed=mcs_seed)
-    return _TrackedSimulator(inner, mcs_simulations)
+    return tracked(inner, mcs_simulations)
 
 
 @pytest.fixture(scope="session")
