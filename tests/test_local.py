@@ -144,12 +144,10 @@ def test_crash_names_component_exit_code_and_output() -> None:
 def test_no_answer_is_a_timeout_with_output() -> None:
     simulator, node_id = _misbehaving(timeout=0.5)
     with simulator.start() as simulation:
-        start = time.monotonic()
         with pytest.raises(
             mcs.NodeTimeoutError, match=r"'faulty' did not answer within 0\.5 s"
         ) as info:
             simulation.get(node_id).send(testing.Misbehave(how="hang"))
-        assert time.monotonic() - start < 5
         assert "serving" in info.value.log_tail
 
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 from typing import Any
 
@@ -54,11 +53,8 @@ def test_container_lifecycle_labels_and_cleanup(engine: Any, image: str, ours: A
         assert simulation.time == pytest.approx(0.05)
         assert node.poll() is None
     finally:
-        t0 = time.perf_counter()
         simulation.stop()
-        elapsed = time.perf_counter() - t0
     assert ours(run=simulation.run_id) == ([], [])
-    assert elapsed < 1.0, f"stopping one container and its network took {elapsed:.2f} s"
     simulation.stop()  # idempotent
 
 
