@@ -11,7 +11,7 @@ import dataclasses
 import threading
 import time
 from collections.abc import Callable, Mapping, Sequence
-from typing import Any, Generic, TypeVar
+from typing import Any, Generic
 
 import msgspec
 import zmq
@@ -26,7 +26,7 @@ from ._errors import (
     NodeTimeoutError,
     RemoteError,
 )
-from ._messages import decode, encode, type_name
+from ._messages import MsgT, ReplyT, decode, encode, type_name
 from ._processes import check_port, default_name, split_command, start_process
 from ._runtime import Firmware
 from ._waits import (
@@ -44,9 +44,6 @@ __all__ = [
     "FirmwareThreadComponent",
     "check_types",
 ]
-
-MsgT = TypeVar("MsgT")
-ReplyT = TypeVar("ReplyT")
 
 
 def check_types(msgtype: object, replytype: object) -> None:

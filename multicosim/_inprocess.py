@@ -22,7 +22,7 @@ from ._errors import (
     SimulationStopped,
     TransportError,
 )
-from ._messages import decode, encode, type_name
+from ._messages import MsgT, ReplyT, decode, encode, type_name
 from ._runtime import (
     Firmware,
     FirmwareContext,
@@ -40,9 +40,6 @@ __all__ = [
     "ParticipantComponent",
     "ParticipantNode",
 ]
-
-MsgT = TypeVar("MsgT")
-ReplyT = TypeVar("ReplyT")
 
 
 class _Expired(BaseException):

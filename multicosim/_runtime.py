@@ -39,7 +39,7 @@ from ._errors import (
     TransportError,
     translate,
 )
-from ._messages import decode, encode, type_name
+from ._messages import MsgT, ReplyT, decode, encode, type_name
 
 if TYPE_CHECKING:
     import numpy as np
@@ -60,8 +60,6 @@ __all__ = [
 log = logging.getLogger(__name__)
 
 T = TypeVar("T")
-MsgT = TypeVar("MsgT")
-ReplyT = TypeVar("ReplyT")
 
 # How often a waiting component checks that its parent still exists, so that a component
 # whose host was killed exits instead of lingering.

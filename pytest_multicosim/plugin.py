@@ -41,7 +41,9 @@ __all__ = [
     "KEEP_TRACES",
     "Settings",
     "SimulationRegistry",
+    "Simulations",
     "require_docker",
+    "tracked",
 ]
 
 log = logging.getLogger(__name__)
@@ -59,11 +61,14 @@ FIXTURE_LIBRARIES = (
 SimT = TypeVar("SimT")
 
 
-class _Simulator(Protocol):
-    def start(self) -> Any: ...
+StartedT = TypeVar("StartedT", covariant=True)
 
 
-SimulatorT = TypeVar("SimulatorT", bound=_Simulator)
+class _Simulator(Protocol[StartedT]):
+    def start(self) -> StartedT: ...
+
+
+SimulatorT = TypeVar("SimulatorT", bound=_Simulator[Any])
 
 
 @dataclasses.dataclass(frozen=True)
@@ -502,8 +507,8 @@ class SimulationRegistry:
             log.warning("stopping leftover simulations failed: %r", exc)
 
 
-class _TestSimulations:
-    """The per-test view of the registry, the object behind the ``mcs_simulations`` fixture."""
+class Simulations:
+    """The ``mcs_simulations`` fixture: starts simulations and stops them when the test ends."""
 
     def __init__(self, registry: SimulationRegistry) -> None:
         self._registry = registry
@@ -521,7 +526,7 @@ class _TestSimulations:
                 test_trace.attach(simulation)
         return simulation
 
-    def start(self, simulator: Any) -> Any:
+    def start(self, simulator: _Simulator[StartedT]) -> StartedT:
         """Start ``simulator`` and stop its simulation when the test ends."""
         return self.track(simulator.start())
 
@@ -530,13 +535,13 @@ class _TestSimulations:
 
 
 @pytest.fixture
-def mcs_simulations(request: pytest.FixtureRequest) -> Iterator[_TestSimulations]:
+def mcs_simulations(request: pytest.FixtureRequest) -> Iterator[Simulations]:
     """Starts simulations for the test and stops them at teardown, even after a failure.
 
     From the first use on, SIGTERM stops the run as Ctrl-C does, with teardown.
     """
     request.config.stash[sigterm_key].install()
-    view = _TestSimulations(request.config.stash[registry_key])
+    view = Simulations(request.config.stash[registry_key])
     request.node.stash[_view_key] = view
     try:
         yield view
@@ -544,10 +549,10 @@ def mcs_simulations(request: pytest.FixtureRequest) -> Iterator[_TestSimulations
         view.close()
 
 
-_view_key = pytest.StashKey[_TestSimulations]()
+_view_key = pytest.StashKey[Simulations]()
 
 
-def tracked(simulator: SimulatorT, simulations: _TestSimulations) -> SimulatorT:
+def tracked(simulator: SimulatorT, simulations: Simulations) -> SimulatorT:
     """``simulator`` itself, whose ``start`` hands each simulation to ``simulations``.
 
     The fixtures return the simulator itself, not a proxy, so that it is an instance of its
@@ -608,7 +613,7 @@ def mcs_runtime_image() -> str:
 
 @pytest.fixture
 def mcs_simulator(
-    mcs_backend: str, mcs_seed: int, mcs_simulations: _TestSimulations
+    mcs_backend: str, mcs_seed: int, mcs_simulations: Simulations
 ) -> ProcessSimulator | ContainerSimulator:
     """A fresh simulator of the selected backend, seeded; its simulation always stops."""
     if mcs_backend == "docker":
@@ -826,7 +831,7 @@ _FLIGHT_LOG_VIEWERS = {
 }
 
 
-def _save_logs(view: _TestSimulations, dest: Path) -> dict[str, tuple[Path, str]]:
+def _save_logs(view: Simulations, dest: Path) -> dict[str, tuple[Path, str]]:
     saved: dict[str, tuple[Path, str]] = {}
     for sim in view.simulations:
         logs = getattr(sim, "logs", None)

@@ -79,7 +79,7 @@ def test_exported_names_are_the_intended_ones() -> None:
 
 def test_unknown_attribute_is_an_attribute_error() -> None:
     with pytest.raises(AttributeError, match="no attribute 'Nope'"):
-        _ = mcs.Nope  # type: ignore[attr-defined]
+        _ = mcs.Nope
 
 
 def test_import_multicosim_stays_light() -> None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import time
 from dataclasses import dataclass, field
 
@@ -60,10 +61,14 @@ class Sink:
         self.seen.extend((ctx.time, m.n) for m in self.sub.messages)
 
 
-def _run(*participants: object, duration: float, seed: int = 0) -> mcs.ProcessSimulation:
+def _same(participant: mcs.Participant) -> mcs.Participant:
+    return participant
+
+
+def _run(*participants: mcs.Participant, duration: float, seed: int = 0) -> mcs.ProcessSimulation:
     simulator = mcs.ProcessSimulator(seed=seed)
     for i, p in enumerate(participants):
-        simulator.add(mcs.ParticipantComponent(lambda p=p: p, name=f"p{i}"))
+        simulator.add(mcs.ParticipantComponent(functools.partial(_same, p), name=f"p{i}"))
     simulation = simulator.start()
     try:
         simulation.advance(duration)

@@ -232,13 +232,13 @@ def test_process_ignoring_sigterm_is_killed() -> None:
         "print('up', flush=True); time.sleep(60)"
     )
     simulator = mcs.ProcessSimulator()
-    simulator.add(
+    node_id = simulator.add(
         mcs.ProcessComponent(
             ["python", "-c", code], name="stubborn", ready="started", stop_timeout=0.3
         )
     )
     simulation = simulator.start()
-    pid = simulation.nodes[0].pid  # type: ignore[attr-defined]
+    pid = simulation.get(node_id).pid
     simulation.stop()
     with pytest.raises(ProcessLookupError):
         os.kill(pid, 0)
@@ -246,7 +246,7 @@ def test_process_ignoring_sigterm_is_killed() -> None:
 
 def test_logs_are_kept_per_component(tmp_path: Path) -> None:
     simulator = mcs.ProcessSimulator(run_dir=tmp_path)
-    simulator.add(
+    a_id = simulator.add(
         mcs.ProcessComponent(
             ["python", "-c", "print('hello from a', flush=True); import time; time.sleep(30)"],
             name="a",
@@ -260,7 +260,7 @@ def test_logs_are_kept_per_component(tmp_path: Path) -> None:
         deadline = time.monotonic() + 10
         while "hello from a" not in logs["a"].read_text() and time.monotonic() < deadline:
             time.sleep(0.05)
-        assert "hello from a" in simulation.nodes[0].log_tail()  # type: ignore[attr-defined]
+        assert "hello from a" in simulation.get(a_id).log_tail()
     # With an explicit run_dir the logs stay after stop.
     assert "serving" in logs["b"].read_text()
 

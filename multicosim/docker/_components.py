@@ -34,6 +34,7 @@ from .._errors import (
 )
 from .._firmware import FirmwareNode, check_types
 from .._interfaces import Node
+from .._messages import MsgT, ReplyT
 from .._processes import split_command
 from .._rundirs import start_time
 from .._waits import (
@@ -57,8 +58,6 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
-MsgT = TypeVar("MsgT")
-ReplyT = TypeVar("ReplyT")
 HostT = TypeVar("HostT", bound=Node)
 HostT_co = TypeVar("HostT_co", bound=Node, covariant=True)
 

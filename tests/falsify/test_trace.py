@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import pytest
 from falsify_cart import PIT, CartScenario
@@ -213,7 +214,7 @@ def test_plot_command(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> Non
 
     # A valid MCAP file that multicosim did not write: a clear error, no blank picture.
     with open(tmp_path / "foreign.mcap", "wb") as stream:
-        writer = Writer(stream)
+        writer: Any = Writer(stream)
         writer.start(profile="", library="another tool")
         schema = writer.register_schema("point", "jsonschema", b'{"type": "object"}')
         channel = writer.register_channel("/points", "json", schema)

@@ -12,6 +12,7 @@ import msgspec
 import pytest
 
 import multicosim as mcs
+from multicosim.geo import Home
 from multicosim.mujoco import (
     DEFAULT_HOME,
     INTEGRATORS,
@@ -83,7 +84,7 @@ def test_world_config_defaults_and_variants() -> None:
 
 def test_world_config_round_trips_through_json() -> None:
     config = WorldConfig(
-        timestep=0.001, solver="PGS", sensor_topics={"imu": "raw/imu"}, home=(10.0, 20.0, 5.0)
+        timestep=0.001, solver="PGS", sensor_topics={"imu": "raw/imu"}, home=Home(10.0, 20.0, 5.0)
     )
     decoded = msgspec.json.decode(msgspec.json.encode(config), type=WorldConfig)
     assert decoded == config

@@ -152,7 +152,8 @@ def test_sensor_topics_carry_mavlink_frames_at_medium_wire() -> None:
     assert isinstance(packet, MavlinkPacket)
     assert packet.data[0] == 0xFD
     (back,) = unpack(packet)
-    assert back == pytest.approx(msg) if False else back.fields_updated == 0x3F
+    assert isinstance(back, HilSensor)
+    assert back.fields_updated == 0x3F
     assert read(packet, HilSensor) is not None
     assert math.isclose(back.zacc, -9.8, rel_tol=1e-6)
 

@@ -28,7 +28,7 @@ import multicosim as mcs
 import multicosim.px4 as px4
 from multicosim.geo import LocalProjection
 from multicosim.px4._config import world_topics
-from multicosim.px4._hil import Truth
+from multicosim.px4._hil import Truth, Wire
 from multicosim.px4._hilserver import HilTcpBridge
 from multicosim.px4._real import API_LOCAL_PORT, API_PORT, claim_instance
 from multicosim.px4._simulator import WorldComponent
@@ -169,7 +169,7 @@ def test_bridge_runs_the_world_in_lockstep_with_a_tcp_simulator_client(process: 
     topics = world_topics(world)
     sim = mcs.ProcessSimulator(seed=0)
     sim.add(WorldComponent(world, "medium", process=process))
-    wire = "mavlink" if process else "native"
+    wire: Wire = "mavlink" if process else "native"
     bridge_id = sim.add(
         mcs.ParticipantComponent(
             lambda: HilTcpBridge(topics, period=world.period, port=0, wire=wire), "hil"

@@ -213,7 +213,7 @@ def test_the_px4_plot_draws_east_right_north_up_with_the_plan_and_the_violation(
     fig = figure(trace)
     ax_path, _, ax_rob = fig.axes
     assert (ax_path.get_xlabel(), ax_path.get_ylabel()) == ("east (m)", "north (m)")
-    lines = {line.get_gid(): line for ax in fig.axes for line in ax.get_lines()}
+    lines: dict[object, Any] = {line.get_gid(): line for ax in fig.axes for line in ax.get_lines()}
 
     # The truth path is the world's truth: east on x, north on y.
     truth = [m.data for m in trace.topic("px4/truth")]
@@ -236,7 +236,8 @@ def test_the_px4_plot_draws_east_right_north_up_with_the_plan_and_the_violation(
     signal = lines["signal/true_alt"]
     assert list(signal.get_ydata()) == pytest.approx([s["true_alt"] for s in samples])
     first = next(s["time"] for s in samples if s["true_alt"] > 10.0)
-    marks = {line.get_label(): line.get_xdata()[0] for line in ax_rob.get_lines()}
+    rob_lines: list[Any] = ax_rob.get_lines()
+    marks = {line.get_label(): line.get_xdata()[0] for line in rob_lines}
     first_mark = next(x for label, x in marks.items() if label.startswith("first violation"))
     assert first_mark == pytest.approx(first)
     assert any(label.startswith("worst time") for label in marks)
@@ -248,7 +249,9 @@ def test_the_rover_plot_draws_the_worlds_position(
 ) -> None:
     path, _ = failing_run
     trace = read_trace(artifacts(path, f"test_rover_drives_backwards_{fidelity}") / "trace.mcap")
-    lines = {line.get_gid(): line for ax in figure(trace).axes for line in ax.get_lines()}
+    lines: dict[object, Any] = {
+        line.get_gid(): line for ax in figure(trace).axes for line in ax.get_lines()
+    }
     positions = [m.data for m in trace.topic("rover/position")]
     # What the world's position sensor published (noisy at medium): not called the truth.
     measured = lines["path/measured"]
