@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 
 from ._errors import (
     CampaignInterrupted,
+    ComponentCheckError,
     ConfigurationError,
     DependencyMissingError,
     EngineUnavailableError,
@@ -79,6 +80,7 @@ __all__ = [
     "CampaignInterrupted",
     "CommunicationNode",
     "Component",
+    "ComponentCheckError",
     "ConfigurationError",
     "ContainerComponent",
     "ContainerNode",

@@ -22,15 +22,23 @@ from typing import Any
 __all__ = ["main"]
 
 
-def _load(target: str) -> Any:
+def load_target(target: str) -> Any:
+    """The object ``MODULE:ATTRIBUTE`` names (ValueError if ``target`` is not of that form)."""
     module_name, sep, attr = target.partition(":")
     if not sep or not module_name or not attr:
-        raise SystemExit(f"error: expected MODULE:ATTRIBUTE, got {target!r}")
+        raise ValueError(f"expected MODULE:ATTRIBUTE, got {target!r}")
     module = importlib.import_module(module_name)
     obj: Any = module
     for part in attr.split("."):
         obj = getattr(obj, part)
     return obj
+
+
+def _load(target: str) -> Any:
+    try:
+        return load_target(target)
+    except ValueError as exc:
+        raise SystemExit(f"error: {exc}") from None
 
 
 def _build(factory: Callable[..., Any], config: str | None) -> Any:

@@ -20,6 +20,7 @@ anything the harness raises on its own account::
     ├── PhysicsDivergedError      MuJoCo's integration diverged under this configuration
     ├── RequirementViolation      a requirement does not hold (also an AssertionError)
     ├── TraceError                a trace could not be written or read
+    ├── ComponentCheckError       multicosim.testing.check_component found a fault
     └── CampaignInterrupted       Ctrl-C stopped a campaign (also a KeyboardInterrupt)
 
 ``Simulation.stop`` reports several failures at once as an ``ExceptionGroup`` of these.
@@ -36,11 +37,13 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
+    from ._check import ComponentReport
     from .campaign import CampaignResult
     from .requirements import Evaluation
 
 __all__ = [
     "CampaignInterrupted",
+    "ComponentCheckError",
     "ConfigurationError",
     "DependencyMissingError",
     "EngineUnavailableError",
@@ -201,6 +204,14 @@ class RequirementViolation(MulticosimError, AssertionError):
 
 class TraceError(MulticosimError):
     """A trace could not be written or read back."""
+
+
+class ComponentCheckError(MulticosimError):
+    """``check_component`` found a fault; ``report`` lists every check and what failed."""
+
+    def __init__(self, report: ComponentReport) -> None:
+        self.report = report
+        super().__init__(str(report))
 
 
 class CampaignInterrupted(MulticosimError, KeyboardInterrupt):

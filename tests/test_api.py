@@ -16,6 +16,7 @@ EXPECTED = {
     "ContainerSimulation",
     "ContainerSimulator",
     "CampaignInterrupted",
+    "ComponentCheckError",
     "EngineUnavailableError",
     "FIDELITIES",
     "Fidelity",

@@ -47,6 +47,14 @@ def test_component_listing_runs_in_process() -> None:
     assert x == pytest.approx(2.0)
 
 
+def test_check_component_listing_prints_its_report(capsys: pytest.CaptureFixture[str]) -> None:
+    _run("print(check_component(")
+    printed = capsys.readouterr().out
+    shown = re.search(r"```\n(check_component\(.*?)```", README.read_text(), flags=re.DOTALL)
+    assert shown is not None
+    assert printed == shown.group(1)
+
+
 def test_pytest_listing_passes(pytester: pytest.Pytester) -> None:
     pytester.makepyfile(
         "import multicosim as mcs\nfrom multicosim import testing\n"
