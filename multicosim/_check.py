@@ -116,12 +116,13 @@ def check_component(
         raise ConfigurationError("message", message, "a message to send to the firmware")
     if not is_firmware and (isinstance(duration, bool) or not 0 < duration <= 3600):
         raise ConfigurationError("duration", duration, "simulated seconds in (0, 3600]")
+    plan = _Plan(beside, seed, message, duration, is_firmware)
     checks: list[Check] = []
     runs: dict[str, _Run] = {}
 
     def attempt(label: str, make: Callable[[], Component[Any, Any]]) -> None:
         try:
-            runs[label], extra = _run(make, beside, seed, message, duration, is_firmware, label)
+            runs[label], extra = plan.run(make, label)
         except Exception as exc:  # the report says what went wrong, in any component
             checks.append(Check(f"runs {label}", False, f"{type(exc).__name__}: {exc}"))
             return
@@ -133,9 +134,7 @@ def check_component(
     else:
         attempt("in-process", lambda: _in_process(obj, config, name))
         if "in-process" in runs:
-            again = _run_quietly(
-                lambda: _in_process(obj, config, name), beside, seed, message, duration, is_firmware
-            )
+            again = plan.rerun(lambda: _in_process(obj, config, name))
             checks.append(
                 _compare(
                     f"deterministic for seed {seed}",
@@ -183,16 +182,17 @@ def _check_as_given(
     beside: Callable[[], Sequence[Component[Any, Any]]] | None,
     raise_on_failure: bool,
 ) -> ComponentReport:
-    is_firmware = message is not None  # a node that answers messages is sent one
+    # A node that answers messages is sent one.
+    plan = _Plan(beside, seed, message, duration, is_firmware=message is not None)
     checks: list[Check] = []
     try:
-        first, extra = _run(lambda: component, beside, seed, message, duration, is_firmware, "")
+        first, extra = plan.run(lambda: component)
     except Exception as exc:  # the report says what went wrong
         checks.append(Check("runs", False, f"{type(exc).__name__}: {exc}"))
     else:
         checks.append(Check("runs", True))
         checks.extend(extra)
-        again = _run_quietly(lambda: component, beside, seed, message, duration, is_firmware)
+        again = plan.rerun(lambda: component)
         checks.append(_compare(f"deterministic for seed {seed}", first, again, "a second run"))
     report = ComponentReport(repr(component), tuple(checks))
     if raise_on_failure and not report.passed:
@@ -252,59 +252,56 @@ def _as_process(
     return ProcessComponent(command, name=name)
 
 
-def _run(
-    make: Callable[[], Component[Any, Any]],
-    beside: Callable[[], Sequence[Component[Any, Any]]] | None,
-    seed: int,
-    message: object,
-    duration: float,
-    is_firmware: bool,
-    label: str = "",
-) -> tuple[_Run, list[Check]]:
-    """One run in a fresh simulation; the checks of stopping it and of what it left."""
-    threads = set(threading.enumerate())
-    children = _children()
-    simulator = ProcessSimulator(seed=seed)
-    for component in beside() if beside is not None else ():
-        simulator.add(component)
-    node_id = simulator.add(make())
-    messages: list[tuple[str, int, bytes]] = []
-    reply: bytes | None = None
-    simulation: ProcessSimulation = simulator.start()
-    run_dir = simulation.run_dir
-    try:
-        from .trace import find_scheduler
+@dataclasses.dataclass(frozen=True)
+class _Plan:
+    """How each run goes: what runs beside, the seed, what it is sent or how long it runs."""
 
-        def tap(delivery: Delivery) -> None:
-            messages.append((delivery.topic, delivery.time_ns, delivery.data))
+    beside: Callable[[], Sequence[Component[Any, Any]]] | None
+    seed: int
+    message: object
+    duration: float
+    is_firmware: bool
 
-        find_scheduler(simulation).taps.append(tap)
-        node = simulation.get(node_id)
-        if is_firmware:
-            reply = encode(node.send(message))
-        else:
-            simulation.advance(duration)
-    except BaseException:
-        simulation.stop()
-        raise
-    where = f" ({label})" if label else ""
-    checks = [_stops_twice(simulation, node, where)]
-    checks.append(_left_behind(threads, children, run_dir, where))
-    return (messages, reply), checks
+    def run(
+        self, make: Callable[[], Component[Any, Any]], label: str = ""
+    ) -> tuple[_Run, list[Check]]:
+        """One run in a fresh simulation; the checks of stopping it and of what it left."""
+        threads = set(threading.enumerate())
+        children = _children()
+        simulator = ProcessSimulator(seed=self.seed)
+        for component in self.beside() if self.beside is not None else ():
+            simulator.add(component)
+        node_id = simulator.add(make())
+        messages: list[tuple[str, int, bytes]] = []
+        reply: bytes | None = None
+        simulation: ProcessSimulation = simulator.start()
+        run_dir = simulation.run_dir
+        try:
+            from .trace import find_scheduler
 
+            def tap(delivery: Delivery) -> None:
+                messages.append((delivery.topic, delivery.time_ns, delivery.data))
 
-def _run_quietly(
-    make: Callable[[], Component[Any, Any]],
-    beside: Callable[[], Sequence[Component[Any, Any]]] | None,
-    seed: int,
-    message: object,
-    duration: float,
-    is_firmware: bool,
-) -> _Run | Exception:
-    try:
-        return _run(make, beside, seed, message, duration, is_firmware)[0]
-    except Exception as exc:  # reported as a difference from the first run
-        return exc
+            find_scheduler(simulation).taps.append(tap)
+            node = simulation.get(node_id)
+            if self.is_firmware:
+                reply = encode(node.send(self.message))
+            else:
+                simulation.advance(self.duration)
+        except BaseException:
+            simulation.stop()
+            raise
+        where = f" ({label})" if label else ""
+        checks = [_stops_twice(simulation, node, where)]
+        checks.append(_left_behind(threads, children, run_dir, where))
+        return (messages, reply), checks
+
+    def rerun(self, make: Callable[[], Component[Any, Any]]) -> _Run | Exception:
+        """What a run gave, or what it raised (reported as a difference from the first)."""
+        try:
+            return self.run(make)[0]
+        except Exception as exc:  # the comparison reports it
+            return exc
 
 
 def _stops_twice(simulation: ProcessSimulation, node: Any, where: str) -> Check:
