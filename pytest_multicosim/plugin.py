@@ -654,7 +654,7 @@ def mcs_fresh_simulation() -> Any:
     Session-scoped on purpose: Hypothesis rejects function-scoped fixtures in ``@given``
     tests because they are not reset between examples::
 
-        @given(mission=rover_missions())
+        @given(mission=rover.strategies.missions())
         def test_x(mcs_fresh_simulation, mission):
             with mcs_fresh_simulation(rover.Rover) as simulation: ...
     """

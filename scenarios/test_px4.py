@@ -30,12 +30,12 @@ def wp(north: float, east: float, alt: float) -> px4.Waypoint:
     return px4.Waypoint(lat, lon, alt)
 
 
-def true_ne(sample: px4.Sample) -> tuple[float, float]:
+def true_ne(sample: px4.FlightSample) -> tuple[float, float]:
     """The world's true north/east position of ``sample``."""
     return PROJ.project(sample.true_lat, sample.true_lon)
 
 
-def sample_at(result: px4.MissionResult, time: float) -> px4.Sample:
+def sample_at(result: px4.MissionResult, time: float) -> px4.FlightSample:
     """The trajectory sample closest to simulated ``time``."""
     return min(result.trajectory, key=lambda s: abs(s.time - time))
 

@@ -36,7 +36,7 @@ TURN_TOLERANCE = {
 }
 
 
-def _segment(trajectory: Trajectory, state: str) -> list[rover.Sample]:
+def _segment(trajectory: Trajectory, state: str) -> list[rover.SensedSample]:
     return [s for s in trajectory if s.state == state]
 
 

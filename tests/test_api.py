@@ -125,3 +125,10 @@ def test_require_names_the_extra_for_a_missing_module() -> None:
     with pytest.raises(mcs.DependencyMissingError, match=r"multicosim\[trace\]") as info:
         require("surely_not_installed_module", "trace")
     assert (info.value.module, info.value.extra) == ("surely_not_installed_module", "trace")
+
+
+def test_former_names_are_deprecated_aliases() -> None:
+    import multicosim.px4 as px4
+
+    with pytest.warns(DeprecationWarning, match="use multicosim.px4.FlightSample"):
+        assert px4.Sample is px4.FlightSample

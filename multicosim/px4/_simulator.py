@@ -534,7 +534,7 @@ class PX4:
         """
         return self._firmware.spec.wire
 
-    def remap(self, sensor: str, topic: str) -> None:
+    def read_sensor_from(self, sensor: str, topic: str) -> None:
         """Have the autopilot read ``sensor`` (imu, mag, baro, gps) from ``topic`` instead.
 
         Before start; an injector then fills ``topic`` from the world's topic.

@@ -321,7 +321,7 @@ class Rover:
             )
         return self._add(component)
 
-    def remap(self, sensor: str, topic: str) -> None:
+    def publish_sensor_on(self, sensor: str, topic: str) -> None:
         """Have the world publish ``sensor`` on ``topic`` instead (before start).
 
         An injector added with ``add`` then republishes it on the topic the controller reads.

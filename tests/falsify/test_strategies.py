@@ -12,9 +12,13 @@ from hypothesis import find, given, settings
 from hypothesis import strategies as st
 
 import multicosim as mcs
+import multicosim.rover.strategies as rover_st
 import multicosim.strategies as mst
 from multicosim import FIDELITIES
+from multicosim.geo import LocalProjection
 from multicosim.mujoco import INTEGRATORS, SOLVERS, WorldConfig
+from multicosim.px4 import Configuration, Home
+from multicosim.px4 import strategies as px4st
 
 
 @pytest.mark.parametrize(
@@ -40,13 +44,14 @@ def test_world_config_bounds(kwargs: dict[str, object], field: str, match: str) 
 @pytest.mark.parametrize(
     ("call", "field"),
     [
-        (lambda: mst.geofence_waypoints(radius=0.0), "radius"),
-        (lambda: mst.geofence_waypoints(altitude=(50.0, 10.0)), "altitude"),
-        (lambda: mst.geofence_waypoints(count=(0, 3)), "count"),
-        (lambda: mst.geofence_waypoints(home=(91.0, 0.0, 0.0)), "home"),
-        (lambda: mst.rover_missions(speed=(0.0, 5.0)), "speed"),
-        (lambda: mst.rover_missions(speed=(1.0, 50.0)), "speed"),
-        (lambda: mst.rover_missions(turn_angle=(0.0, 0.0)), "turn_angle"),
+        (lambda: px4st.waypoints(distance=(-1.0, 10.0)), "distance"),
+        (lambda: px4st.waypoints(altitude=(50.0, 10.0)), "altitude"),
+        (lambda: px4st.missions(count=(0, 3)), "count"),
+        (lambda: rover_st.missions(speed=(0.0, 5.0)), "speed"),
+        (lambda: rover_st.missions(speed=(1.0, 50.0)), "speed"),
+        (lambda: rover_st.missions(turn_angle=(0.0, 0.0)), "turn_angle"),
+        (lambda: rover_st.sensor_noise(scale=(2.0, 1.0)), "scale"),
+        (lambda: rover_st.world_configs(iterations=(0, 10)), "iterations"),
         (lambda: mst.noise_levels(-1.0), "noise"),
         (lambda: mst.fidelities(["ultra"]), "levels"),
     ],
@@ -74,28 +79,25 @@ def test_world_configs_respect_their_bounds(config: WorldConfig) -> None:
     assert 10 <= config.iterations <= 20
 
 
-def test_waypoints_reach_one_above_home_at_the_lowest_altitude() -> None:
-    home = (47.0, 8.0, 400.0)
-    above = [(47.0, 8.0, 25.0)]
-    assert find(mst.geofence_waypoints(home, altitude=(25.0, 50.0)), lambda w: w == above)
+def test_waypoints_reach_the_lowest_altitude() -> None:
+    points = px4st.waypoints(Home(47.0, 8.0, 400.0), altitude=(25.0, 50.0))
+    assert find(points, lambda w: w.alt == 25.0).alt == 25.0
 
 
-@given(mission=mst.geofence_waypoints((47.0, 8.0, 400.0), radius=100.0, count=(1, 3)))
-def test_waypoints_stay_inside_the_geofence(mission: list[tuple[float, float, float]]) -> None:
-    from multicosim.mujoco import geodetic_to_local
-
-    assert 1 <= len(mission) <= 3
-    for lat, lon, alt in mission:
-        east, north, _ = geodetic_to_local((47.0, 8.0, 0.0), lat, lon, 0.0)
-        assert math.hypot(east, north) <= 100.0 + 1e-6
-        assert 10.0 <= alt <= 50.0
+@given(config=px4st.missions(Home(47.0, 8.0, 400.0), count=(1, 3), distance=(0.0, 100.0)))
+def test_waypoints_stay_within_their_distance(config: Configuration) -> None:
+    assert 1 <= len(config.mission) <= 3
+    for waypoint in config.mission:
+        north, east = LocalProjection(47.0, 8.0).project(waypoint.lat, waypoint.lon)
+        assert math.hypot(east, north) <= 100.0 + 0.05  # the coordinates are rounded
+        assert 5.0 <= waypoint.alt <= 50.0
 
 
 def test_rover_missions_noise_and_fidelities_reach_their_simplest_values() -> None:
     from multicosim.rover import Mission
 
-    simple = Mission(speed=1.0, wait=0.0)
-    assert find(mst.rover_missions(), lambda m: m == simple) == simple
+    simple = find(rover_st.missions(speed=(1.0, 2.0)), lambda m: m.wait == 0.0 and m.speed == 1.0)
+    assert isinstance(simple, Mission)
     assert find(mst.noise_levels(0.5), lambda n: n == 0.0) == 0.0
     for level in FIDELITIES:
         assert find(mst.fidelities(), functools.partial(operator.eq, level)) == level

@@ -109,7 +109,7 @@ def test_pressure_altitude_round_trip() -> None:
         assert pressure_altitude(pressure_hpa(alt)) == pytest.approx(alt, abs=1e-6)
 
 
-@given(px4st.missions(max_distance=500.0))
+@given(px4st.missions(distance=(0.0, 500.0)))
 def test_generated_missions_are_inside_the_geofence(config: px4.Configuration) -> None:
     config.check_geofence(px4.Home(), px4.Geofence())
 
@@ -137,7 +137,7 @@ def test_public_names() -> None:
         "PX4Node",
         "PX4Simulation",
         "SITL",
-        "Sample",
+        "FlightSample",
         "Topics",
         "Waypoint",
         "WaypointReached",

@@ -159,7 +159,7 @@ def test_sensor_topics_carry_mavlink_frames_at_medium_wire() -> None:
 
 
 @settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(px4st.missions(max_waypoints=3, max_distance=120.0, max_alt=30.0))
+@given(px4st.missions(count=(1, 3), distance=(0.0, 120.0), altitude=(5.0, 30.0)))
 def test_generated_missions_complete_at_low_fidelity(config: px4.Configuration) -> None:
     with px4.PX4(fidelity="low").start() as sim:
         result = sim.firmware.send(config)

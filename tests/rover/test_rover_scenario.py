@@ -182,7 +182,7 @@ def test_controller_without_a_world_fails_clearly() -> None:
 
 
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(missions(max_speed=4.0))
+@given(missions(speed=(0.5, 4.0)))
 def test_any_mission_ends_near_its_plan_at_low_fidelity(mission: Mission) -> None:
     with rover.Rover(fidelity="low").start() as simulation:
         trajectory = simulation.controller.send(mission)
@@ -210,7 +210,7 @@ def test_strategies_draw_valid_configurations(world: WorldConfig, noise: rover.S
 
 
 @settings(max_examples=3, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(world_configs(min_timestep=0.001))
+@given(world_configs(timestep=(0.001, 0.005)))
 def test_drawn_world_configurations_drive_the_mission(world: WorldConfig) -> None:
     mission = Mission(speed=3.0, wait=0.0, distance=3.0, final_distance=2.0)
     with rover.Rover(fidelity="medium", world=world).start() as simulation:
