@@ -49,16 +49,16 @@ _LAZY = {
     "firmware": "._runtime",
     "run_participant": "._runtime",
     "serve": "._runtime",
-    "FirmwareNode": "._local",
-    "FirmwareProcessComponent": "._local",
-    "FirmwareThreadComponent": "._local",
+    "ProcessFirmwareNode": "._local",
+    "ProcessFirmwareComponent": "._local",
+    "ThreadFirmwareComponent": "._local",
     "InProcessFirmwareComponent": "._local",
     "InProcessFirmwareNode": "._local",
-    "InProcessSimulation": "._local",
-    "InProcessSimulator": "._local",
+    "SelfContainedSimulation": "._local",
+    "SelfContainedSimulator": "._local",
     "LocalEnvironment": "._local",
-    "ParticipantComponent": "._local",
-    "ParticipantNode": "._local",
+    "InProcessComponent": "._local",
+    "InProcessNode": "._local",
     "ProcessComponent": "._local",
     "ProcessNode": "._local",
     "ProcessSimulation": "._local",
@@ -70,7 +70,8 @@ _LAZY = {
     "ContainerNode": ".docker",
     "ContainerSimulation": ".docker",
     "ContainerSimulator": ".docker",
-    "FirmwareComponent": ".docker",
+    "ContainerFirmwareComponent": ".docker",
+    "FirmwareComponent": ".docker",  # the paper's name for ContainerFirmwareComponent
     "Requirement": ".requirements",
 }
 
@@ -83,6 +84,7 @@ __all__ = [
     "ComponentCheckError",
     "ConfigurationError",
     "ContainerComponent",
+    "ContainerFirmwareComponent",
     "ContainerNode",
     "ContainerSimulation",
     "ContainerSimulator",
@@ -92,15 +94,12 @@ __all__ = [
     "Firmware",
     "FirmwareComponent",
     "FirmwareContext",
-    "FirmwareNode",
-    "FirmwareProcessComponent",
-    "FirmwareThreadComponent",
     "FormulaError",
     "ImageMissingError",
+    "InProcessComponent",
     "InProcessFirmwareComponent",
     "InProcessFirmwareNode",
-    "InProcessSimulation",
-    "InProcessSimulator",
+    "InProcessNode",
     "LocalEnvironment",
     "Message",
     "MessageTypeError",
@@ -112,10 +111,10 @@ __all__ = [
     "NodeStartError",
     "NodeTimeoutError",
     "Participant",
-    "ParticipantComponent",
-    "ParticipantNode",
     "PhysicsDivergedError",
     "ProcessComponent",
+    "ProcessFirmwareComponent",
+    "ProcessFirmwareNode",
     "ProcessNode",
     "ProcessSimulation",
     "ProcessSimulator",
@@ -123,11 +122,14 @@ __all__ = [
     "Requirement",
     "RequirementViolation",
     "ScenarioSimulation",
+    "SelfContainedSimulation",
+    "SelfContainedSimulator",
     "Simulation",
     "SimulationStopped",
     "Simulator",
     "StepContext",
     "Subscription",
+    "ThreadFirmwareComponent",
     "TraceError",
     "TransportError",
     "__version__",
@@ -138,21 +140,21 @@ __all__ = [
 
 if TYPE_CHECKING:
     from ._local import (
-        FirmwareNode,
-        FirmwareProcessComponent,
-        FirmwareThreadComponent,
+        InProcessComponent,
         InProcessFirmwareComponent,
         InProcessFirmwareNode,
-        InProcessSimulation,
-        InProcessSimulator,
+        InProcessNode,
         LocalEnvironment,
-        ParticipantComponent,
-        ParticipantNode,
         ProcessComponent,
+        ProcessFirmwareComponent,
+        ProcessFirmwareNode,
         ProcessNode,
         ProcessSimulation,
         ProcessSimulator,
         ScenarioSimulation,
+        SelfContainedSimulation,
+        SelfContainedSimulator,
+        ThreadFirmwareComponent,
     )
     from ._runtime import (
         Firmware,
@@ -167,6 +169,7 @@ if TYPE_CHECKING:
     from .docker import (
         AttachedComponent,
         ContainerComponent,
+        ContainerFirmwareComponent,
         ContainerNode,
         ContainerSimulation,
         ContainerSimulator,
@@ -175,7 +178,29 @@ if TYPE_CHECKING:
     from .requirements import Requirement
 
 
+# Former names, kept as deprecated aliases: old name -> new name.
+_DEPRECATED = {
+    "ParticipantComponent": "InProcessComponent",
+    "ParticipantNode": "InProcessNode",
+    "FirmwareProcessComponent": "ProcessFirmwareComponent",
+    "FirmwareThreadComponent": "ThreadFirmwareComponent",
+    "FirmwareNode": "ProcessFirmwareNode",
+    "InProcessSimulator": "SelfContainedSimulator",
+    "InProcessSimulation": "SelfContainedSimulation",
+}
+
+
 def __getattr__(name: str) -> Any:
+    if name in _DEPRECATED:
+        import warnings
+
+        new = _DEPRECATED[name]
+        warnings.warn(
+            f"multicosim.{name} is deprecated: use multicosim.{new}",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        return __getattr__(new)
     module = _LAZY.get(name)
     if module is None:
         raise AttributeError(f"module 'multicosim' has no attribute {name!r}")

@@ -20,10 +20,10 @@ from ._clock import Delivery
 from ._errors import ComponentCheckError, ConfigurationError
 from ._interfaces import Component
 from ._local import (
-    FirmwareProcessComponent,
+    InProcessComponent,
     InProcessFirmwareComponent,
-    ParticipantComponent,
     ProcessComponent,
+    ProcessFirmwareComponent,
     ProcessSimulation,
     ProcessSimulator,
     participant_command,
@@ -236,7 +236,7 @@ def _in_process(obj: Any, config: object, name: str) -> Component[Any, Any]:
     if isinstance(obj, Firmware):
         return InProcessFirmwareComponent(obj, name=name)
     factory = obj if config is None else (lambda: obj(config))
-    return ParticipantComponent(factory, name=name)
+    return InProcessComponent(factory, name=name)
 
 
 def _as_process(
@@ -244,7 +244,7 @@ def _as_process(
 ) -> Component[Any, Any]:
     if is_firmware:
         command = [sys.executable, "-m", "multicosim", "serve", reference, "--port", "{port}"]
-        return FirmwareProcessComponent(command, msgtype=msgtype, name=name)
+        return ProcessFirmwareComponent(command, msgtype=msgtype, name=name)
     if config is None:
         command = [sys.executable, "-m", "multicosim", "participant", reference]
     else:

@@ -128,7 +128,7 @@ def rover_lane(sample: Mapping[str, Any], fidelity: str, seed: int) -> dict[str,
     spoof = attacks.Drift(rate=(sample["east"], sample["north"], 0.0), start=sample["start"])
     attacks.inject(simulator, "gps", [spoof])
     truth = _Truth()
-    simulator.add(mcs.ParticipantComponent(lambda: truth, name="truth"))
+    simulator.add(mcs.InProcessComponent(lambda: truth, name="truth"))
     with simulator.start() as simulation:
         simulation.controller.send(mission)
     off = distance_to_path(np.array(truth.points), planned_path(mission))

@@ -54,7 +54,7 @@ class Probe:
 def probe(simulator: Any, topic: str, tp: type[Any], period: float, name: str = "probe") -> Probe:
     """Add a probe on ``topic`` to ``simulator`` (after any injector, before the firmware)."""
     recorder = Probe(topic, tp, period)
-    simulator.add(mcs.ParticipantComponent(lambda: recorder, name=name))
+    simulator.add(mcs.InProcessComponent(lambda: recorder, name=name))
     return recorder
 
 

@@ -30,7 +30,7 @@ def _run(containing: str, namespace: dict[str, Any] | None = None) -> dict[str, 
 
 
 def test_quick_start_listing_runs() -> None:
-    namespace = _run("multicosim.testing:Cart")
+    namespace = _run("replytype=testing.DriveReport")
     # The cart moves at 5 m/s from t=0.01 s until the driver's last step at t=1.95 s.
     assert namespace["report"].positions[-1] == pytest.approx(9.75)
 
@@ -40,7 +40,7 @@ def test_component_listing_runs_in_process() -> None:
 
     namespace = _run("class Cart:", {"mcs": mcs, "testing": testing})
     simulator = mcs.ProcessSimulator()
-    simulator.add(mcs.ParticipantComponent(namespace["Cart"], name="cart"))
+    simulator.add(mcs.InProcessComponent(namespace["Cart"], name="cart"))
     node_id = simulator.add(mcs.InProcessFirmwareComponent(namespace["controller"]))
     with simulator.start() as simulation:
         x = simulation.get(node_id).send(namespace["Mission"](speed=2.0, duration=1.0))

@@ -24,7 +24,7 @@ import msgspec
 from .._clock import NS
 from .._errors import ConfigurationError
 from .._interfaces import Node
-from .._local import LocalEnvironment, ParticipantComponent, ProcessComponent, participant_command
+from .._local import InProcessComponent, LocalEnvironment, ProcessComponent, participant_command
 from ._models import Additive, Delay, Dropout, Model, Offsets, check_models
 from ._sensors import Sensor, Vehicle, Wire, canonical, sensor
 
@@ -213,4 +213,4 @@ class InjectorComponent:
                 environment
             )
         config = self.config
-        return ParticipantComponent(lambda: SensorInjector(config), self.name).start(environment)
+        return InProcessComponent(lambda: SensorInjector(config), self.name).start(environment)

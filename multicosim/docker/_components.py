@@ -1,5 +1,5 @@
 """The paper's container classes: ContainerNode, ContainerComponent, AttachedComponent,
-FirmwareComponent, and the environment a ContainerSimulator gives them.
+ContainerFirmwareComponent, and the environment a ContainerSimulator gives them.
 
 Every container runs with an init process (so it stops at once on SIGTERM), carries the run's
 labels (so a sweep can remove it if its host dies) and is removed when its node stops. It runs
@@ -32,7 +32,7 @@ from .._errors import (
     NodeTimeoutError,
     translate,
 )
-from .._firmware import FirmwareNode, check_types
+from .._firmware import ProcessFirmwareNode, check_types
 from .._interfaces import Node
 from .._messages import MsgT, ReplyT
 from .._processes import split_command
@@ -50,10 +50,10 @@ __all__ = [
     "AttachedNode",
     "ContainerComponent",
     "ContainerEnvironment",
+    "ContainerFirmwareComponent",
     "ContainerFirmwareNode",
     "ContainerLimits",
     "ContainerNode",
-    "FirmwareComponent",
 ]
 
 log = logging.getLogger(__name__)
@@ -512,7 +512,7 @@ class ContainerComponent:
         return node
 
 
-class ContainerFirmwareNode(FirmwareNode[MsgT, ReplyT]):
+class ContainerFirmwareNode(ProcessFirmwareNode[MsgT, ReplyT]):
     """A firmware in a container: a CommunicationNode over ZeroMQ through a loopback port.
 
     ``container`` is its ContainerNode (logs, exit code); ``host_port`` the published port.
@@ -545,7 +545,7 @@ class ContainerFirmwareNode(FirmwareNode[MsgT, ReplyT]):
 
 
 @dataclasses.dataclass(frozen=True)
-class FirmwareComponent(Generic[MsgT, ReplyT]):
+class ContainerFirmwareComponent(Generic[MsgT, ReplyT]):
     """A firmware in a container, reached as a CommunicationNode (the paper's class).
 
     ``{port}`` in ``command`` becomes ``port``, the container port the program serves on; it
@@ -672,9 +672,9 @@ def _container_of(node: Node) -> ContainerNode:
 class AttachedComponent(Generic[HostT]):
     """Containers sharing one network stack (the paper's AttachedComponent).
 
-    Only ``host`` (a ContainerComponent or FirmwareComponent) joins the simulation's network
-    and publishes ports; every ``attached`` container reuses its network stack, so they all
-    talk to each other over localhost.
+    Only ``host`` (a ContainerComponent or ContainerFirmwareComponent) joins the simulation's
+    network and publishes ports; every ``attached`` container reuses its network stack, so
+    they all talk to each other over localhost.
     """
 
     host: _HostComponent[HostT]
@@ -683,8 +683,10 @@ class AttachedComponent(Generic[HostT]):
 
     def __post_init__(self) -> None:
         host: object = self.host  # checked at run time: the annotation is not enforced
-        if not isinstance(host, ContainerComponent | FirmwareComponent):
-            raise ConfigurationError("host", self.host, "a ContainerComponent or FirmwareComponent")
+        if not isinstance(host, ContainerComponent | ContainerFirmwareComponent):
+            raise ConfigurationError(
+                "host", self.host, "a ContainerComponent or ContainerFirmwareComponent"
+            )
         if isinstance(self.attached, ContainerComponent) or not all(
             isinstance(c, ContainerComponent) for c in self.attached
         ):

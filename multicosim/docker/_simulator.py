@@ -62,7 +62,7 @@ class ContainerSimulator(LocalSimulatorBase[ContainerEnvironment]):
 
     Containers join the lockstep through a coordinator listening on the network's gateway
     address; ``seed`` and ``realtime`` mean what they mean for ProcessSimulator. In-process
-    components (ParticipantComponent, InProcessFirmwareComponent) may be mixed in.
+    components (InProcessComponent, InProcessFirmwareComponent) may be mixed in.
     ``run_dir`` keeps each container's output there (NAME.log) after the run.
     """
 

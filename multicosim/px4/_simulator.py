@@ -34,10 +34,10 @@ from .._errors import ConfigurationError, MessageTypeError, MulticosimError
 from .._fidelity import FIDELITIES, Fidelity, check_fidelity
 from .._interfaces import Component, Node, NodeId
 from .._local import (
+    InProcessComponent,
     InProcessFirmwareComponent,
     InProcessFirmwareNode,
     LocalEnvironment,
-    ParticipantComponent,
     ProcessComponent,
     ProcessSimulation,
     ProcessSimulator,
@@ -172,7 +172,7 @@ class WorldComponent:
         """Start the world in this process, as a process or as a container."""
         spec = self.spec
         if self.image is None and _in_process(self.fidelity, self.process):
-            return ParticipantComponent(lambda: world(spec), self.name).start(environment)
+            return InProcessComponent(lambda: world(spec), self.name).start(environment)
         return _start_participant(
             environment, self.name, "multicosim.px4._world:world", spec, self.image
         )
@@ -350,7 +350,7 @@ class PX4Component:
         if self.firmware is not None:
             return self._start_sitl(environment, spec)
         if self.image is None and _in_process(self.fidelity, self.process):
-            autopilot: Node = ParticipantComponent(lambda: Autopilot(spec), self.name).start(
+            autopilot: Node = InProcessComponent(lambda: Autopilot(spec), self.name).start(
                 environment
             )
         else:

@@ -36,11 +36,11 @@ from .._errors import ConfigurationError
 from .._fidelity import FIDELITIES, Fidelity, check_fidelity
 from .._interfaces import CommunicationNode, Component, Node, NodeId
 from .._local import (
-    FirmwareProcessComponent,
+    InProcessComponent,
     InProcessFirmwareComponent,
     LocalEnvironment,
-    ParticipantComponent,
     ProcessComponent,
+    ProcessFirmwareComponent,
     ProcessSimulation,
     ProcessSimulator,
     ScenarioSimulation,
@@ -173,7 +173,7 @@ def world_component(
 
         return ContainerComponent(_runtime_image(), world_command(config, fidelity), name=name)
     if fidelity == "low":
-        return ParticipantComponent(lambda: KinematicWorld(config), name=name)
+        return InProcessComponent(lambda: KinematicWorld(config), name=name)
     return ProcessComponent(["python", "-m", *world_command(config, fidelity)], name=name)
 
 
@@ -191,13 +191,13 @@ def controller_component(
     """The FSA controller, run where ``backend`` says.
 
     Process backend: in-process at low fidelity, else a firmware process. Docker backend: a
-    FirmwareComponent of the runtime image, at every fidelity.
+    ContainerFirmwareComponent of the runtime image, at every fidelity.
     """
     _check_backend(backend)
     if backend == "docker":
-        from ..docker import FirmwareComponent
+        from ..docker import ContainerFirmwareComponent
 
-        return FirmwareComponent(
+        return ContainerFirmwareComponent(
             image=_runtime_image(),
             command=[*CONTROLLER_COMMAND, "--host", "0.0.0.0"],
             port=CONTAINER_PORT,
@@ -207,7 +207,7 @@ def controller_component(
         )
     if fidelity == "low":
         return InProcessFirmwareComponent(controller, name=name)
-    return FirmwareProcessComponent(
+    return ProcessFirmwareComponent(
         ["python", "-m", *CONTROLLER_COMMAND],
         msgtype=Mission,
         replytype=Trajectory,

@@ -35,7 +35,7 @@ def test_paper_listing_2_rover_with_a_firmware_container(image: str) -> None:
     simulator = mcs.ContainerSimulator(seed=1)
     simulator.add(mcs.ContainerComponent(image, rover.world_command()))
     node_id = simulator.add(
-        mcs.FirmwareComponent(
+        mcs.ContainerFirmwareComponent(
             image=image,
             command="multicosim serve multicosim.rover:controller --host 0.0.0.0 --port {port}",
             port=5556,
@@ -150,7 +150,7 @@ def test_docker_scenarios_take_in_process_components(engine: Any, image: str, ma
             seen.append(ctx.time)
 
     simulator = make(fidelity="low", backend="docker")
-    simulator.add(mcs.ParticipantComponent(Probe, name="probe"))
+    simulator.add(mcs.InProcessComponent(Probe, name="probe"))
     with simulator.start() as simulation:
         simulation.advance(1.0)
     assert seen == pytest.approx([0.1 * i for i in range(10)])  # steps in [0, 1)

@@ -151,7 +151,7 @@ class Scalar:
 
 def test_non_object_messages_are_wrapped(tmp_path: Path) -> None:
     simulator = mcs.ProcessSimulator()
-    simulator.add(mcs.ParticipantComponent(Scalar, name="scalar"))
+    simulator.add(mcs.InProcessComponent(Scalar, name="scalar"))
     simulation = simulator.start()
     try:
         recorder = Recorder().attach(simulation)
@@ -252,7 +252,7 @@ def test_attach_needs_a_simulation_with_a_clock() -> None:
 def test_cart_participant_is_recorded_from_construction_on() -> None:
     # A recorder attached right after start sees the participant's first publication.
     simulator = mcs.ProcessSimulator()
-    simulator.add(mcs.ParticipantComponent(Cart, name="cart"))
+    simulator.add(mcs.InProcessComponent(Cart, name="cart"))
     simulation = simulator.start()
     try:
         recorder = Recorder().attach(simulation)

@@ -200,9 +200,9 @@ def _run(
         {n: (config or RoverWorldConfig()).world.topic(n, t) for n, t in SENSOR_TOPICS.items()}
     )
     simulator = mcs.ProcessSimulator(seed=seed)
-    simulator.add(mcs.ParticipantComponent(lambda: rover_world(config), name="world"))
-    simulator.add(mcs.ParticipantComponent(lambda: Commander(command), name="commander"))
-    simulator.add(mcs.ParticipantComponent(lambda: recorder, name="recorder"))
+    simulator.add(mcs.InProcessComponent(lambda: rover_world(config), name="world"))
+    simulator.add(mcs.InProcessComponent(lambda: Commander(command), name="commander"))
+    simulator.add(mcs.InProcessComponent(lambda: recorder, name="recorder"))
     with simulator.start() as simulation:
         simulation.advance(duration)
     return recorder
@@ -292,11 +292,11 @@ def test_world_runs_as_a_process(no_leaks: None) -> None:
         )
     )
     simulator.add(
-        mcs.ParticipantComponent(
+        mcs.InProcessComponent(
             lambda: Commander(Command(speed=1.5, steering=0.0)), name="commander"
         )
     )
-    simulator.add(mcs.ParticipantComponent(lambda: recorder, name="recorder"))
+    simulator.add(mcs.InProcessComponent(lambda: recorder, name="recorder"))
     with simulator.start() as simulation:
         simulation.advance(2.0)
     positions = recorder.log["position"]

@@ -117,7 +117,7 @@ class GpsShift:
 
 def _with_injector(injector: Any) -> px4.PX4:
     simulator = px4.PX4(fidelity="low", autopilot_topics=px4.Topics(gps="px4/gps/in"))
-    simulator.add(mcs.ParticipantComponent(lambda: injector, "injector"))
+    simulator.add(mcs.InProcessComponent(lambda: injector, "injector"))
     return simulator
 
 

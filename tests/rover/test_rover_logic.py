@@ -221,8 +221,8 @@ def _kinematic(command: Command, duration: float, noise: SensorNoise | None = No
             received["field"] = self.field.latest
 
     simulator = mcs.ProcessSimulator()
-    simulator.add(mcs.ParticipantComponent(lambda: world, name="world"))
-    simulator.add(mcs.ParticipantComponent(Probe, name="probe"))
+    simulator.add(mcs.InProcessComponent(lambda: world, name="world"))
+    simulator.add(mcs.InProcessComponent(Probe, name="probe"))
     with simulator.start() as simulation:
         simulation.advance(duration)
     return world, received

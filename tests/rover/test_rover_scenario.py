@@ -107,7 +107,7 @@ def test_abort_published_on_the_topic_stops_the_rover() -> None:
                 self.sent = True
 
     simulator = rover.Rover(fidelity="low")
-    simulator.add(mcs.ParticipantComponent(lambda: Operator(when=2.0), name="operator"))
+    simulator.add(mcs.InProcessComponent(lambda: Operator(when=2.0), name="operator"))
     with simulator.start() as simulation:
         trajectory = simulation.controller.send(SHORT)
         # A later mission is not aborted by the stale message.
@@ -144,9 +144,9 @@ def test_compass_attack_changes_the_turn() -> None:
         rover.default_world("low"), sensor_topics={"magnetometer": "attack/magnetometer"}
     )
     honest = rover.Rover(fidelity="low", world=world)
-    honest.add(mcs.ParticipantComponent(lambda: _Relay(), name="relay"))
+    honest.add(mcs.InProcessComponent(lambda: _Relay(), name="relay"))
     attacked = rover.Rover(fidelity="low", world=world)
-    attacked.add(mcs.ParticipantComponent(CompassAttack, name="attack"))
+    attacked.add(mcs.InProcessComponent(CompassAttack, name="attack"))
     with honest.start() as simulation:
         clean = simulation.controller.send(SHORT)
     with attacked.start() as simulation:
@@ -243,7 +243,7 @@ def test_listing_2_shape(no_leaks: None) -> None:
         mcs.ProcessComponent("python -m multicosim participant multicosim.mujoco:rover_world")
     )
     node_id = simulator.add(
-        mcs.FirmwareProcessComponent(
+        mcs.ProcessFirmwareComponent(
             "python -m multicosim serve multicosim.rover:controller --port {port}",
             msgtype=Mission,
             replytype=Trajectory,

@@ -105,5 +105,5 @@ class StopsOnce:
     """Broken: a component of one's own whose node raises when stopped a second time."""
 
     def start(self, environment: Any) -> Any:
-        component = mcs.ParticipantComponent(Noisy, name="stops-once")
+        component = mcs.InProcessComponent(Noisy, name="stops-once")
         return _Stubborn(component.start(environment))

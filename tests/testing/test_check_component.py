@@ -60,7 +60,7 @@ def test_a_good_firmware_with_its_world_beside_it_passes() -> None:
     report = check_component(
         testing.drive,
         message=testing.Drive(speed=1.0, steps=10),
-        beside=lambda: [mcs.ParticipantComponent(testing.Cart, name="cart")],
+        beside=lambda: [mcs.InProcessComponent(testing.Cart, name="cart")],
     )
     assert report.passed, str(report)
 
