@@ -192,15 +192,9 @@ _DEPRECATED = {
 
 def __getattr__(name: str) -> Any:
     if name in _DEPRECATED:
-        import warnings
+        from ._deps import renamed
 
-        new = _DEPRECATED[name]
-        warnings.warn(
-            f"multicosim.{name} is deprecated: use multicosim.{new}",
-            DeprecationWarning,
-            stacklevel=2,
-        )
-        return __getattr__(new)
+        return __getattr__(renamed(__name__, name, _DEPRECATED))
     module = _LAZY.get(name)
     if module is None:
         raise AttributeError(f"module 'multicosim' has no attribute {name!r}")

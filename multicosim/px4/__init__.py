@@ -97,15 +97,9 @@ _DEPRECATED = {"Sample": "FlightSample"}
 
 def __getattr__(name: str) -> Any:
     if name in _DEPRECATED:
-        import warnings
+        from .._deps import renamed
 
-        new = _DEPRECATED[name]
-        warnings.warn(
-            f"multicosim.px4.{name} is deprecated: use multicosim.px4.{new}",
-            DeprecationWarning,
-            stacklevel=2,
-        )
-        return globals()[new]
+        return globals()[renamed(__name__, name, _DEPRECATED)]
     module = _LAZY.get(name)
     if module is None:
         raise AttributeError(f"module 'multicosim.px4' has no attribute {name!r}")
