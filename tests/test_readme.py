@@ -2,8 +2,13 @@
 
 from __future__ import annotations
 
+import contextlib
+import fnmatch
+import io
+import itertools
 import os
 import re
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -23,10 +28,50 @@ def _block(containing: str) -> str:
     return str(found[0])
 
 
-def _run(containing: str, namespace: dict[str, Any] | None = None) -> dict[str, Any]:
+def _shown(block: str) -> list[str]:
+    """What the block says its prints print: a top-level print's comment, or the next line's."""
+    shown = []
+    for line, after in itertools.pairwise([*block.splitlines(), ""]):
+        if not line.startswith("print("):
+            continue
+        if "  # " in line:  # print(x)  # what it prints
+            shown.append(line.split("  # ", 1)[1])
+        elif after.startswith("# "):
+            shown.append(after.removeprefix("# "))
+    return shown
+
+
+def _matches(printed: str, shown: str) -> bool:
+    # "..." in the README stands for what varies (floats drawn by a search, times).
+    pattern = shown.replace("[", "[[]").replace("...", "*")
+    return fnmatch.fnmatchcase(printed, pattern)
+
+
+def _run(
+    containing: str, namespace: dict[str, Any] | None = None, code: str | None = None
+) -> dict[str, Any]:
+    """Run the README block containing ``containing`` as written; check what it prints."""
     namespace = {} if namespace is None else namespace
-    exec(compile(_block(containing), f"README block with {containing!r}", "exec"), namespace)
+    code = _block(containing) if code is None else code
+    output = io.StringIO()
+    with contextlib.redirect_stdout(output):
+        exec(compile(code, f"README block with {containing!r}", "exec"), namespace)
+    sys.stdout.write(output.getvalue())  # still there for capsys and for reading
+    printed = output.getvalue().splitlines()
+    for shown in _shown(code):
+        # Each shown output is printed, in order.
+        while printed and not _matches(printed[0], shown):
+            printed.pop(0)
+        assert printed, f"the README block with {containing!r} did not print {shown!r}"
+        printed.pop(0)
     return namespace
+
+
+def test_every_print_in_the_readme_shows_its_output() -> None:
+    blocks = re.findall(r"```python\n(.*?)```", README.read_text(), flags=re.DOTALL)
+    prints = [b for b in blocks if "\nprint(" in "\n" + b and "summary()" not in b]
+    assert prints
+    assert all(_shown(block) or "check_component" in block for block in prints)
 
 
 def test_quick_start_listing_runs() -> None:
@@ -36,9 +81,8 @@ def test_quick_start_listing_runs() -> None:
 
 
 def test_component_listing_runs_in_process() -> None:
-    from multicosim import testing
 
-    namespace = _run("class Cart:", {"mcs": mcs, "testing": testing})
+    namespace = _run("class Cart:")
     simulator = mcs.ProcessSimulator()
     simulator.add(mcs.InProcessComponent(namespace["Cart"], name="cart"))
     node_id = simulator.add(mcs.InProcessFirmwareComponent(namespace["controller"]))
@@ -48,7 +92,7 @@ def test_component_listing_runs_in_process() -> None:
 
 
 def test_check_component_listing_prints_its_report(capsys: pytest.CaptureFixture[str]) -> None:
-    _run("print(check_component(")
+    _run("report = check_component(")
     printed = capsys.readouterr().out
     shown = re.search(r"```\n(check_component\(.*?)```", README.read_text(), flags=re.DOTALL)
     assert shown is not None
@@ -56,10 +100,7 @@ def test_check_component_listing_prints_its_report(capsys: pytest.CaptureFixture
 
 
 def test_pytest_listing_passes(pytester: pytest.Pytester) -> None:
-    pytester.makepyfile(
-        "import multicosim as mcs\nfrom multicosim import testing\n"
-        + _block("def test_cart_reaches_the_goal")
-    )
+    pytester.makepyfile(_block("def test_cart_reaches_the_goal"))
     result = pytester.runpytest("--mcs-fidelity=low,medium,high", "-rs")
     result.assert_outcomes(passed=2, skipped=1)
     result.stdout.fnmatch_lines(["*fidelity 'high' not in the test's levels (low, medium)*"])
@@ -75,9 +116,7 @@ def test_real_px4_listing_runs(px4_sitl: RealPX4) -> None:
     if px4_sitl.binary is None:
         pytest.skip("the listing runs a PX4 binary")
     code = _block("px4.SITL(binary=").replace('"../shared/px4-sitl/bin/px4"', repr(px4_sitl.binary))
-    namespace: dict[str, Any] = {}
-    exec(compile(code, "README block with px4.SITL", "exec"), namespace)
-    result = namespace["result"]
+    result = _run("px4.SITL(binary=", code=code)["result"]
     assert result.completed, result.reason
     assert result.firmware_version == "1.15.4"
     assert [r.index for r in result.reached] == [0]
