@@ -116,7 +116,8 @@ def distance_to_path(points: np.ndarray, path: np.ndarray) -> np.ndarray:
     ap = points[:, None, :] - a[None, :, :]
     t = np.clip((ap * ab).sum(-1) / (ab * ab).sum(-1), 0.0, 1.0)
     nearest = a[None] + t[..., None] * ab[None]
-    return np.sqrt(((points[:, None, :] - nearest) ** 2).sum(-1)).min(axis=1)
+    distances: np.ndarray = np.sqrt(((points[:, None, :] - nearest) ** 2).sum(-1)).min(axis=1)
+    return distances
 
 
 def rover_lane(sample: Mapping[str, Any], fidelity: str, seed: int) -> dict[str, Any]:
