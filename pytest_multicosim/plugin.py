@@ -42,6 +42,7 @@ __all__ = [
     "Settings",
     "SimulationRegistry",
     "Simulations",
+    "docker_unavailable",
     "require_docker",
     "tracked",
 ]
@@ -576,16 +577,19 @@ def require_docker() -> None:
     try:
         from multicosim.docker import engine_available
     except ImportError as exc:  # the docker extra is missing (DependencyMissingError)
-        _docker_unavailable(f"the docker SDK is not installed: {exc}")
+        docker_unavailable("no Docker SDK (pip install 'multicosim[docker]')", str(exc))
     reason = engine_available()
     if reason is not None:
-        _docker_unavailable(f"no Docker engine: {reason}")
+        from multicosim.docker._engine import engine_url
+
+        docker_unavailable(f"no Docker engine at {engine_url()}", reason)
 
 
-def _docker_unavailable(reason: str) -> None:
+def docker_unavailable(reason: str, detail: str = "") -> None:
+    """Skip with the one-line ``reason``; fail, with ``detail``, under MCS_REQUIRE_DOCKER=1."""
     # Read when needed, not at import: a test may set it for a pytester run.
     if os.environ.get("MCS_REQUIRE_DOCKER") == "1":
-        pytest.fail(f"MCS_REQUIRE_DOCKER=1 but {reason}", pytrace=False)
+        pytest.fail(f"MCS_REQUIRE_DOCKER=1 but {reason}: {detail}", pytrace=False)
     pytest.skip(reason)
 
 
@@ -606,7 +610,7 @@ def mcs_runtime_image() -> str:
         try:
             client().api.inspect_image(RUNTIME_IMAGE)
         except ImageNotFound:
-            _docker_unavailable(f"the runtime image {RUNTIME_IMAGE} could not be built: {exc}")
+            docker_unavailable(f"{RUNTIME_IMAGE} could not be built", str(exc))
         log.warning("using %s as it is: %s", RUNTIME_IMAGE, exc)
         return RUNTIME_IMAGE
 

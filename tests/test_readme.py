@@ -6,7 +6,6 @@ import contextlib
 import fnmatch
 import io
 import itertools
-import os
 import re
 import sys
 from pathlib import Path
@@ -15,6 +14,7 @@ from typing import Any
 import pytest
 
 import multicosim as mcs
+from pytest_multicosim.plugin import require_docker
 from pytest_multicosim.px4 import RealPX4
 
 README = Path(__file__).resolve().parents[1] / "README.md"
@@ -158,14 +158,8 @@ def test_search_listing_runs() -> None:
 
 
 def test_docker_listing_runs() -> None:
-    from multicosim.docker import RUNTIME_IMAGE, engine_available
-
-    reason = engine_available()
-    if reason is not None:
-        if os.environ.get("MCS_REQUIRE_DOCKER") == "1":
-            pytest.fail(f"MCS_REQUIRE_DOCKER=1 but no Docker engine: {reason}")
-        pytest.skip(f"no Docker engine: {reason}")
-    from multicosim.docker import build_images
+    require_docker()
+    from multicosim.docker import RUNTIME_IMAGE, build_images
 
     assert RUNTIME_IMAGE in build_images()
     assert _run("mcs.ContainerSimulator()")["trajectory"].completed

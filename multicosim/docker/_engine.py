@@ -51,7 +51,8 @@ _START_HINT = (
 )
 
 
-def _engine_url() -> str:
+def engine_url() -> str:
+    """Where the Docker engine is looked for: ``DOCKER_HOST``, read now, or the usual socket."""
     return os.environ.get("DOCKER_HOST", "unix:///var/run/docker.sock")
 
 
@@ -92,7 +93,7 @@ def _client_for(pid: int, url: str) -> Any:
 
 def client() -> Any:
     """This process's Docker client for the engine named by ``DOCKER_HOST`` (read now)."""
-    return _client_for(os.getpid(), _engine_url())
+    return _client_for(os.getpid(), engine_url())
 
 
 def engine_available() -> str | None:
@@ -104,7 +105,7 @@ def engine_available() -> str | None:
         return str(exc)
     except OSError as exc:
         _client_for.cache_clear()
-        return f"the Docker engine is not reachable at {_engine_url()}: {exc}"
+        return f"the Docker engine is not reachable at {engine_url()}: {exc}"
     return None
 
 
@@ -146,7 +147,7 @@ def labels(run_id: str) -> dict[str, str]:
 def build_hint(image: str) -> str:
     """How to get ``image`` onto this machine."""
     return (
-        f"build it locally: `python -m multicosim.docker build` builds multicosim's images "
+        f"build it locally: `multicosim images build` builds multicosim's images "
         f"(or `docker build -t {image} ...` for your own); multicosim never pulls images"
     )
 

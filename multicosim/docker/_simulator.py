@@ -82,7 +82,7 @@ class ContainerSimulator(LocalSimulatorBase[ContainerEnvironment]):
             remove_tree(run_dir)
             raise MulticosimError(
                 f"could not create the simulation's network: {exc.explanation or exc}; if "
-                "Docker's address pools are exhausted, `python -m multicosim.docker sweep` "
+                "Docker's address pools are exhausted, `multicosim sweep` "
                 "removes networks left by killed runs (`docker network prune` removes all)"
             ) from exc
         try:

@@ -442,7 +442,7 @@ class PX4:
     finer step, ``HIGH_FIDELITY_WORLD``, unless ``world`` is given); ``backend`` where the
     world and the autopilot run ("process": in this process at low fidelity, else local
     processes; "docker": containers of ``multicosim.docker.RUNTIME_IMAGE``, built with
-    ``python -m multicosim.docker build``). ``firmware`` picks the autopilot: None for the
+    ``multicosim images build``). ``firmware`` picks the autopilot: None for the
     built-in one, ``px4.SITL(binary=...)`` for real PX4 SITL (a process on the process
     backend, a container on the docker backend) flying the MuJoCo world, which then runs
     in this process (or its container) at PX4's 250 Hz sensor rate. ``seed`` fixes every

@@ -265,7 +265,7 @@ class Rover:
     solver iterations and faster sensors). ``backend`` picks where they run: ``process``
     (in this process at low fidelity, else world and controller as local processes in
     lockstep) or ``docker`` (each a container of ``multicosim.docker.RUNTIME_IMAGE`` on the
-    simulation's network; build it with ``python -m multicosim.docker build``).
+    simulation's network; build it with ``multicosim images build``).
     ``world`` overrides the physics world configuration, ``noise`` the sensor noise.
     Components added with ``add`` (injectors, monitors) step between the world and the
     controller, in add order; on the docker backend they may be containers too.

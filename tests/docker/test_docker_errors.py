@@ -43,7 +43,7 @@ def test_missing_image_says_how_to_build_and_never_pulls(engine: Any, ours: Any)
     assert isinstance(err, mcs.NodeStartError)
     assert err.name == "fw"
     assert missing in str(err)
-    assert "python -m multicosim.docker build" in str(err)
+    assert "multicosim images build" in str(err)
     assert "never pulls" in str(err)
     assert not engine.api.images(name="multicosim/does-not-exist")
     assert ours(session=session_id()) == ([], [])  # checked before anything was created
