@@ -24,7 +24,7 @@ import multicosim.px4 as px4
 import multicosim.strategies as mst
 from multicosim.attacks import strategies as ast
 from multicosim.falsify import HypothesisSearch, falsify
-from multicosim.geo import EARTH_RADIUS, LocalProjection
+from multicosim.geo import LocalProjection
 from multicosim.requirements import Requirement
 
 HOME = px4.Home()
@@ -44,8 +44,10 @@ MISSION = px4.Configuration([wp(0, 40, 10)], end="hold")
 
 def estimate_error(s: Any) -> Any:
     """Horizontal distance (m) between the autopilot's estimate and the world's truth."""
-    north = np.radians(s["lat"] - s["true_lat"]) * EARTH_RADIUS
-    east = np.radians(s["lon"] - s["true_lon"]) * EARTH_RADIUS * math.cos(math.radians(HOME.lat))
+    projection = LocalProjection(HOME.lat, HOME.lon)
+    estimate = [projection.project(lat, lon) for lat, lon in zip(s["lat"], s["lon"], strict=True)]
+    truth = [projection.project(*p) for p in zip(s["true_lat"], s["true_lon"], strict=True)]
+    north, east = (np.asarray(estimate) - np.asarray(truth)).T
     return np.hypot(north, east)
 
 

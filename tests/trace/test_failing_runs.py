@@ -25,6 +25,7 @@ import pytest
 from mcap.reader import make_reader
 from pymavlink import mavutil
 
+from multicosim.geo import EARTH_RADIUS
 from multicosim.trace import read_trace
 from multicosim.trace._plot import figure
 
@@ -196,9 +197,8 @@ def test_the_trace_of_a_failing_fixture_test_is_valid_foxglove_data(
 
 def equirectangular(lat: float, lon: float) -> tuple[float, float]:
     """East and north (m) of a point from HOME: a projection of our own, good to a few cm here."""
-    radius = 6_371_000.0
-    north = math.radians(lat - HOME[0]) * radius
-    east = math.radians(lon - HOME[1]) * radius * math.cos(math.radians(HOME[0]))
+    north = math.radians(lat - HOME[0]) * EARTH_RADIUS
+    east = math.radians(lon - HOME[1]) * EARTH_RADIUS * math.cos(math.radians(HOME[0]))
     return east, north
 
 
