@@ -32,7 +32,7 @@ from ._errors import (
     TraceError,
     TransportError,
 )
-from ._fidelity import FIDELITIES, Fidelity
+from ._fidelity import BACKENDS, FIDELITIES, Backend, Fidelity
 from ._interfaces import CommunicationNode, Component, Node, NodeId, Simulation, Simulator
 from ._messages import Message
 
@@ -76,8 +76,10 @@ _LAZY = {
 }
 
 __all__ = [
+    "BACKENDS",
     "FIDELITIES",
     "AttachedComponent",
+    "Backend",
     "CampaignInterrupted",
     "CommunicationNode",
     "Component",

@@ -1,4 +1,5 @@
-"""The fidelity ladder: the one list of levels every scenario, search and option accepts."""
+"""What a run is: its fidelity level and its backend, the one list of each that every
+scenario, search and option accepts."""
 
 from __future__ import annotations
 
@@ -6,11 +7,16 @@ from typing import Literal, TypeGuard
 
 from ._errors import ConfigurationError
 
-__all__ = ["FIDELITIES", "Fidelity", "check_fidelity", "is_fidelity"]
+__all__ = ["BACKENDS", "FIDELITIES", "Backend", "Fidelity", "check_fidelity", "is_fidelity"]
 
 Fidelity = Literal["low", "medium", "high"]
 # Lowest first: analytic models in-process, MuJoCo in processes, MuJoCo's finest settings.
 FIDELITIES: tuple[Fidelity, ...] = ("low", "medium", "high")
+
+
+Backend = Literal["process", "docker"]
+# Where components run: in this process and local processes, or in Docker containers.
+BACKENDS: tuple[Backend, ...] = ("process", "docker")
 
 
 def is_fidelity(value: object) -> TypeGuard[Fidelity]:

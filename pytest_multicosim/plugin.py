@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 import pytest
 
 from multicosim._errors import MulticosimError
-from multicosim._fidelity import FIDELITIES
+from multicosim._fidelity import BACKENDS, FIDELITIES
 
 from ._signals import SigtermAsInterrupt
 
@@ -49,7 +49,6 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
-BACKENDS = ("process", "docker")
 KEEP_TRACES = ("failed", "all", "none")
 _ARTIFACTS_DEFAULT = "mcs-artifacts"
 FIXTURE_LIBRARIES = (

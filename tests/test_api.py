@@ -18,6 +18,8 @@ EXPECTED = {
     "CampaignInterrupted",
     "ComponentCheckError",
     "EngineUnavailableError",
+    "BACKENDS",
+    "Backend",
     "FIDELITIES",
     "Fidelity",
     "FormulaError",

@@ -26,12 +26,12 @@ import dataclasses
 import math
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Literal, cast
+from typing import TYPE_CHECKING, Any, cast
 
 import msgspec
 
 from .._errors import ConfigurationError, MessageTypeError, MulticosimError
-from .._fidelity import FIDELITIES, Fidelity, check_fidelity
+from .._fidelity import BACKENDS, FIDELITIES, Backend, Fidelity, check_fidelity
 from .._interfaces import Component, Node, NodeId
 from .._local import (
     InProcessComponent,
@@ -80,8 +80,6 @@ __all__ = [
     "default_world",
 ]
 
-Backend = Literal["process", "docker"]
-BACKENDS: tuple[Backend, ...] = ("process", "docker")
 LOW_PERIOD = 0.1  # a 10 Hz loop suffices for a point mass and keeps a minute of flight >= 1000x
 # High fidelity: the same 100 Hz lockstep, with the rigid body integrated four times finer
 # and the constraint solver given twice the iterations.

@@ -33,7 +33,7 @@ import math
 from typing import TYPE_CHECKING, Any, Literal, TypeVar, cast, overload
 
 from .._errors import ConfigurationError
-from .._fidelity import FIDELITIES, Fidelity, check_fidelity
+from .._fidelity import BACKENDS, FIDELITIES, Backend, Fidelity, check_fidelity
 from .._interfaces import CommunicationNode, Component, Node, NodeId
 from .._local import (
     InProcessComponent,
@@ -73,8 +73,6 @@ __all__ = [
 
 NodeT = TypeVar("NodeT", bound=Node)
 
-Backend = Literal["process", "docker"]
-BACKENDS: tuple[Backend, ...] = ("process", "docker")
 
 WORLD_NAME = "world"
 CONTROLLER_NAME = "controller"
