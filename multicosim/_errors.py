@@ -279,3 +279,12 @@ def tidy_expected(message: str) -> str:
     names = [n.strip() for n in expected.strip("{}").split(",")]
     names = [n for n in names if n and n != "<INVALID>"]
     return f"{head}, expecting one of {', '.join(names)}" if names else head
+
+
+# Shown under the name users import them by: ``multicosim.NodeCrashedError`` in tracebacks and
+# reports (and pickles, which find them there too).
+for _name in __all__:
+    _value = globals()[_name]
+    if isinstance(_value, type):
+        _value.__module__ = "multicosim"
+del _name, _value

@@ -316,7 +316,7 @@ def test_the_report_and_the_junit_xml_name_trace_and_replay(failing_run: tuple[P
     # Our frames are hidden: the traceback ends in the test, the verdict comes first.
     assert "multicosim/requirements.py" not in stdout
     assert stdout.count("verdict: ") == 4
-    assert "verdict: multicosim.requirements.RequirementViolation: requirement " in stdout
+    assert "verdict: multicosim.RequirementViolation: requirement " in stdout
     assert "first violated at t=" in stdout
     assert "open: Foxglove" in stdout
 
