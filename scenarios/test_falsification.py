@@ -112,13 +112,14 @@ def test_gps_spoof_breaks_tracking_and_shrinks_to_the_limit(mcs_seed: int) -> No
         seed=mcs_seed,
     )
     assert result.falsified, result.summary()
-    spoof = result.counterexample.example  # type: ignore[union-attr]
+    assert result.counterexample is not None
+    spoof = result.counterexample.example
     assert isinstance(spoof.offset, tuple)
     size = math.hypot(spoof.offset[0], spoof.offset[1])
     # Shrunk to the limit: the estimate follows the spoof (overshooting it a little), so the
     # error is about the offset and the smallest spoof that breaks the requirement is ~5 m.
     assert size == pytest.approx(LIMIT, abs=1.01), result.summary()
-    low = result.counterexample.results["low"]  # type: ignore[union-attr]
+    low = result.counterexample.results["low"]
     assert -1.5 < low.evaluation.robustness < 0
 
 

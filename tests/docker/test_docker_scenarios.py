@@ -14,6 +14,7 @@ from multicosim.docker import (
     ContainerComponent,
     ContainerFirmwareNode,
     ContainerNode,
+    ContainerSimulation,
     ImageMissingError,
 )
 from multicosim.geo import LocalProjection
@@ -58,17 +59,18 @@ def test_rover_runs_world_and_controller_as_containers(engine: Any, image: str, 
         assert isinstance(world, ContainerNode)
         assert isinstance(controller, ContainerFirmwareNode)
         inner = simulation.simulation
-        assert [c.name for c in inner.containers()] == ["world", "controller"]  # type: ignore[attr-defined]
+        assert isinstance(inner, ContainerSimulation)
+        assert [c.name for c in inner.containers()] == ["world", "controller"]
         for node in (world, controller.container):
             info = engine.api.inspect_container(node.id)
             assert info["Config"]["Image"] == image
-            assert inner.network in info["NetworkSettings"]["Networks"]  # type: ignore[attr-defined]
+            assert inner.network in info["NetworkSettings"]["Networks"]
         # High fidelity: the finer world settings reached the container.
         args = engine.api.inspect_container(world.id)["Config"]["Cmd"]
         assert args == rover.world_command(rover.Rover(fidelity="high").config, "high")
         trajectory = controller.send(SHORT_MISSION)
         assert trajectory.completed, trajectory.reason
-        run_id = inner.run_id  # type: ignore[attr-defined]
+        run_id = inner.run_id
     assert ours(run=run_id) == ([], [])
 
 
@@ -78,7 +80,8 @@ def test_px4_runs_world_and_autopilot_as_containers(engine: Any, image: str, our
     assert simulator.wire == "mavlink"
     with simulator.start() as simulation:
         inner = simulation.simulation
-        assert [c.name for c in inner.containers()] == ["world", "px4"]  # type: ignore[attr-defined]
+        assert isinstance(inner, ContainerSimulation)
+        assert [c.name for c in inner.containers()] == ["world", "px4"]
         assert isinstance(simulation.world, ContainerNode)
         assert simulation.firmware.autopilot is None  # not in this process
         info = engine.api.inspect_container(simulation.world.id)
@@ -86,7 +89,7 @@ def test_px4_runs_world_and_autopilot_as_containers(engine: Any, image: str, our
         result = simulation.firmware.send(HOLD)
         assert result.completed, result.reason
         assert result.armed
-        run_id = inner.run_id  # type: ignore[attr-defined]
+        run_id = inner.run_id
     assert ours(run=run_id) == ([], [])
 
 

@@ -62,7 +62,8 @@ def test_each_optimizer_finds_the_pit_and_every_level_confirms_it() -> None:
         assert cx.found_at == "low"
         assert cx.failing_levels == ("low", "medium")
         assert result.first_violation is not None
-        assert result.first_violation <= result.first_confirmed <= result.simulations  # type: ignore[operator]
+        assert result.first_confirmed is not None
+        assert result.first_violation <= result.first_confirmed <= result.simulations
         # Hypothesis shrinks past the first counterexample; the others stop there.
         if optimizer != "hypothesis":
             assert result.first_confirmed == result.simulations

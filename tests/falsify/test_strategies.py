@@ -5,6 +5,7 @@ from __future__ import annotations
 import functools
 import math
 import operator
+from collections.abc import Callable
 
 import pytest
 from falsify_cart import CartScenario
@@ -56,9 +57,9 @@ def test_world_config_bounds(kwargs: dict[str, object], field: str, match: str) 
         (lambda: mst.fidelities(["ultra"]), "levels"),
     ],
 )
-def test_other_bounds(call: object, field: str) -> None:
+def test_other_bounds(call: Callable[[], object], field: str) -> None:
     with pytest.raises(mcs.ConfigurationError) as info:
-        call()  # type: ignore[operator]
+        call()
     assert info.value.field == field
 
 
