@@ -422,7 +422,7 @@ def start_ardupilot(
     Returns once ArduPilot has sent its first servo packet; it then waits, in lockstep, for
     the simulation's clock. Every part started is stopped again if a later one fails.
     """
-    from .._local import ParticipantComponent, ProcessComponent
+    from .._local import InProcessComponent, ProcessComponent
 
     group = ArduPilotNodes(name)
     container = _is_container_environment(environment)
@@ -443,7 +443,7 @@ def start_ardupilot(
             listener.close()
             physics.close()
             raise
-        bridge_node = ParticipantComponent(
+        bridge_node = InProcessComponent(
             lambda: JsonBridge(
                 name=name,
                 period=period,

@@ -21,11 +21,12 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal, cast
 
 from .._errors import ConfigurationError, NodeStartError
+from .._fidelity import BACKENDS, Backend
 from .._interfaces import Component, Node, NodeId
 from .._local import (
+    InProcessComponent,
     InProcessFirmwareComponent,
     LocalEnvironment,
-    ParticipantComponent,
     ProcessSimulation,
     ProcessSimulator,
     ScenarioSimulation,
@@ -68,9 +69,7 @@ __all__ = [
 ]
 
 Fidelity = Literal["medium", "high"]
-Backend = Literal["process", "docker"]
 FIDELITIES: tuple[Fidelity, ...] = ("medium", "high")
-BACKENDS: tuple[Backend, ...] = ("process", "docker")
 FRAME_PERIOD = 1.0 / FRAME_RATE
 BOOT_STEP = 0.05  # s of simulated time between looks at ArduPilot's MAVLink link at start
 BOOT_LIMIT = 10.0  # s of simulated time ArduPilot gets to start speaking MAVLink
@@ -134,7 +133,7 @@ class WorldComponent:
             plugin = ArduCopterVehicle() if vehicle == "copter" else ArduRoverVehicle()
             return World(world, plugin)
 
-        return ParticipantComponent(factory, self.name).start(environment)
+        return InProcessComponent(factory, self.name).start(environment)
 
 
 class ArduPilotNode(MissionNode):
