@@ -12,7 +12,7 @@
    DEALER sending the same frame to the same container.
 
 Usage: ``python bench/bench_docker.py [--starts N] [--calls N] [--quick]``; needs a running
-engine and the runtime image (``python -m multicosim.docker build``); without them it
+engine and the runtime image (``multicosim images build``); without them it
 writes the reason and exits. Prints a table and writes ``bench/results/docker.json``.
 """
 

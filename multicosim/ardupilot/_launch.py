@@ -3,7 +3,7 @@
 Where ArduPilot comes from is a :class:`SITL`: a directory with ``bin/arducopter``,
 ``bin/ardurover`` and ``params/`` (ArduPilot's default parameter files, as its
 ``Tools/autotest/default_params``), run as a local process, or an image
-(``python -m multicosim.docker build --ardupilot-dir DIR``) run as a container on the
+(``multicosim images build --ardupilot-dir DIR``) run as a container on the
 simulation's network. Each ArduPilot gets:
 
 * its own instance number N (``-I N``), claimed by binding its physics port 9002 + 10 N on
@@ -96,7 +96,7 @@ class SITL:
 
     ``directory`` holds ``bin/arducopter``, ``bin/ardurover`` (ArduPilot's SITL builds) and
     ``params/copter.parm``, ``params/rover.parm`` (its default parameters). ``image`` is an
-    ArduPilot image from ``python -m multicosim.docker build --ardupilot-dir DIR``, for
+    ArduPilot image from ``multicosim images build --ardupilot-dir DIR``, for
     ``backend="docker"``; with only a directory, the docker backend builds that image.
     ``params`` are set at boot. ``start_timeout`` bounds (wall seconds) the start until
     ArduPilot's first servo packet; ``lockstep_timeout`` each physics step once it runs.
