@@ -24,6 +24,8 @@ HELPS = [
     ["px4"],
     ["px4", "sitl"],
     ["px4", "launch"],
+    ["ardupilot"],
+    ["ardupilot", "launch"],
 ]
 
 
