@@ -46,5 +46,5 @@ echo "docker.sh: engine $(docker version --format '{{.Server.Version}}') is runn
 
 if [[ $BUILD -eq 1 ]]; then
     cd "$(dirname "$0")/.."
-    "$PYTHON" -m multicosim.docker build
+    "$PYTHON" -m multicosim images build
 fi

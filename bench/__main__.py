@@ -263,7 +263,7 @@ def docker_rows(data: dict[str, Any]) -> list[Row]:
     return [
         row(
             "container",
-            "start-to-ready: FirmwareComponent / raw docker run + first reply",
+            "start-to-ready: ContainerFirmwareComponent / raw docker run + first reply",
             f"{start['component'] * 1e3:.0f} ms / {start['raw'] * 1e3:.0f} ms",
             ratio=r_start,
             target=f"<= {targets['component_start_vs_raw']:g}",

@@ -100,7 +100,7 @@ def docker_reason() -> str | None:
     try:
         client().images.get(RUNTIME_IMAGE)
     except Exception:
-        return f"image {RUNTIME_IMAGE} missing (python -m multicosim.docker build)"
+        return f"image {RUNTIME_IMAGE} missing (multicosim images build)"
     return None
 
 

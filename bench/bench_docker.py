@@ -1,8 +1,9 @@
 """Docker backend overhead against raw Docker + raw ZeroMQ, side by side in one run.
 
-1. start-to-ready: ``FirmwareComponent.start`` (create, start, handshake through the lockstep
-   coordinator, answer through the published port) against ``containers.run`` of the same
-   image and command + polling the published port with raw pyzmq until the first reply.
+1. start-to-ready: ``ContainerFirmwareComponent.start`` (create, start, handshake through
+   the lockstep coordinator, answer through the published port) against ``containers.run``
+   of the same image and command + polling the published port with raw pyzmq until the
+   first reply.
    Measured for a component joining a running simulation and for a whole
    ``ContainerSimulator.start`` (which also creates the network).
 2. stop: ``node.stop()`` (stop and remove the container) against ``container.stop()`` +
@@ -11,7 +12,7 @@
    DEALER sending the same frame to the same container.
 
 Usage: ``python bench/bench_docker.py [--starts N] [--calls N] [--quick]``; needs a running
-engine and the runtime image (``python -m multicosim.docker build``); without them it
+engine and the runtime image (``multicosim images build``); without them it
 writes the reason and exits. Prints a table and writes ``bench/results/docker.json``.
 """
 
@@ -32,8 +33,8 @@ from multicosim import _wire as wire
 from multicosim._messages import encode, type_name
 from multicosim.docker import (
     RUNTIME_IMAGE,
+    ContainerFirmwareComponent,
     ContainerSimulator,
-    FirmwareComponent,
 )
 from multicosim.docker import _selftest as st
 from multicosim.docker._engine import client, labels
@@ -42,8 +43,8 @@ COMMAND = "multicosim serve multicosim.docker._selftest:echo --host 0.0.0.0 --po
 PORT = 5556
 
 
-def _firmware(name: str = "echo") -> FirmwareComponent[st.Echo, st.EchoReply]:
-    return FirmwareComponent(
+def _firmware(name: str = "echo") -> ContainerFirmwareComponent[st.Echo, st.EchoReply]:
+    return ContainerFirmwareComponent(
         image=RUNTIME_IMAGE,
         command=COMMAND,
         port=PORT,
@@ -183,7 +184,7 @@ def main(argv: list[str] | None = None) -> int:
     rows = [
         ("start-to-ready: raw docker run + first reply", med["raw"] * 1e3, "ms", None),
         (
-            "start-to-ready: FirmwareComponent.start",
+            "start-to-ready: ContainerFirmwareComponent.start",
             med["component"] * 1e3,
             "ms",
             med["component"] / med["raw"],
@@ -202,7 +203,7 @@ def main(argv: list[str] | None = None) -> int:
             med["component_stop"] / med["raw_stop"],
         ),
         ("round trip: raw pyzmq, published port", rtt["raw"] * 1e6, "us", None),
-        ("round trip: FirmwareNode.send", rtt["send"] * 1e6, "us", rtt["send"] / rtt["raw"]),
+        ("round trip: ProcessFirmwareNode.send", rtt["send"] * 1e6, "us", rtt["send"] / rtt["raw"]),
     ]
     print(f"{'measure':<56} {'median':>10}  {'ratio':>6}")
     for label, value, unit, ratio in rows:

@@ -67,7 +67,7 @@ def simulator(fidelity: rover.Fidelity, relays: int) -> rover.Rover:
             period=world.period,
         )
         if fidelity == "low":
-            sim.add(mcs.ParticipantComponent(lambda c=config: Relay(c), name=f"relay{i}"))
+            sim.add(mcs.InProcessComponent(lambda c=config: Relay(c), name=f"relay{i}"))
         else:
             command = [
                 "python",

@@ -2,8 +2,8 @@
 
 Measures, between two local processes on loopback:
 
-* ``send``: the round trip of ``FirmwareNode.send`` to a firmware process that answers at
-  once (``FirmwareProcessComponent``), against a raw pyzmq REQ/REP round trip of the same
+* ``send``: the round trip of ``ProcessFirmwareNode.send`` to a firmware process that answers at
+  once (``ProcessFirmwareComponent``), against a raw pyzmq REQ/REP round trip of the same
   encoded payload (the reference), and a raw DEALER/ROUTER one (the socket pair ``send``
   uses);
 * ``step``: one lockstep exchange (Step/Yield) of a process participant, driven by
@@ -200,11 +200,11 @@ def payload(size: int) -> Payload:
 
 
 def bench_send(sizes: list[int], iterations: int, rounds: int) -> list[dict[str, Any]]:
-    """``FirmwareNode.send`` to a process firmware vs raw REQ/REP and DEALER/ROUTER."""
+    """``ProcessFirmwareNode.send`` to a process firmware vs raw REQ/REP and DEALER/ROUTER."""
     env = {"PYTHONPATH": os.pathsep.join([str(HERE), os.environ.get("PYTHONPATH", "")])}
     simulator = mcs.ProcessSimulator()
     fw_id = simulator.add(
-        mcs.FirmwareProcessComponent(
+        mcs.ProcessFirmwareComponent(
             "python -m multicosim serve bench_transport:echo",
             name="echo",
             env=env,
@@ -404,7 +404,7 @@ class MavlinkPeer:
 def bench_inprocess(iterations: int, rounds: int) -> dict[str, Any]:
     """In-process ``send`` and lockstep step against a direct call of the same handler."""
     simulator = mcs.ProcessSimulator()
-    simulator.add(mcs.ParticipantComponent(Idle, name="idle"))
+    simulator.add(mcs.InProcessComponent(Idle, name="idle"))
     fw_id = simulator.add(mcs.InProcessFirmwareComponent(echo))
     msg = payload(4)
     ctx = mcs.FirmwareContext("direct", 0, 1_000_000, None)
@@ -482,7 +482,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--sizes", default="4,128", help="payload sizes (floats), comma list")
     parser.add_argument("--quick", action="store_true", help="1500 calls per case, 10 rounds")
     parser.add_argument("--output", type=Path, default=None)
-    parser.add_argument("--profile", action="store_true", help="cProfile FirmwareNode.send")
+    parser.add_argument("--profile", action="store_true", help="cProfile ProcessFirmwareNode.send")
     parser.add_argument("--raw-server", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.raw_server:
@@ -522,14 +522,14 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def profile_send(iterations: int) -> int:
-    """Profile the host side of ``send`` (where the time goes in FirmwareNode.send)."""
+    """Profile the host side of ``send`` (where the time goes in ProcessFirmwareNode.send)."""
     import cProfile
     import pstats
 
     env = {"PYTHONPATH": os.pathsep.join([str(HERE), os.environ.get("PYTHONPATH", "")])}
     simulator = mcs.ProcessSimulator()
     fw_id = simulator.add(
-        mcs.FirmwareProcessComponent(
+        mcs.ProcessFirmwareComponent(
             "python -m multicosim serve bench_transport:echo",
             name="echo",
             env=env,

@@ -12,19 +12,27 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from ._errors import (
+    CampaignInterrupted,
+    ComponentCheckError,
     ConfigurationError,
     DependencyMissingError,
+    EngineUnavailableError,
+    FormulaError,
+    ImageMissingError,
     MessageTypeError,
     MulticosimError,
     NodeCrashedError,
     NodeError,
     NodeStartError,
     NodeTimeoutError,
+    PhysicsDivergedError,
     RemoteError,
+    RequirementViolation,
     SimulationStopped,
     TraceError,
     TransportError,
 )
+from ._fidelity import BACKENDS, FIDELITIES, Backend, Fidelity
 from ._interfaces import CommunicationNode, Component, Node, NodeId, Simulation, Simulator
 from ._messages import Message
 
@@ -41,16 +49,16 @@ _LAZY = {
     "firmware": "._runtime",
     "run_participant": "._runtime",
     "serve": "._runtime",
-    "FirmwareNode": "._local",
-    "FirmwareProcessComponent": "._local",
-    "FirmwareThreadComponent": "._local",
+    "ProcessFirmwareNode": "._local",
+    "ProcessFirmwareComponent": "._local",
+    "ThreadFirmwareComponent": "._local",
     "InProcessFirmwareComponent": "._local",
     "InProcessFirmwareNode": "._local",
-    "InProcessSimulation": "._local",
-    "InProcessSimulator": "._local",
+    "SelfContainedSimulation": "._local",
+    "SelfContainedSimulator": "._local",
     "LocalEnvironment": "._local",
-    "ParticipantComponent": "._local",
-    "ParticipantNode": "._local",
+    "InProcessComponent": "._local",
+    "InProcessNode": "._local",
     "ProcessComponent": "._local",
     "ProcessNode": "._local",
     "ProcessSimulation": "._local",
@@ -62,31 +70,38 @@ _LAZY = {
     "ContainerNode": ".docker",
     "ContainerSimulation": ".docker",
     "ContainerSimulator": ".docker",
-    "FirmwareComponent": ".docker",
+    "ContainerFirmwareComponent": ".docker",
+    "FirmwareComponent": ".docker",  # the paper's name for ContainerFirmwareComponent
     "Requirement": ".requirements",
-    "RequirementViolation": ".requirements",
 }
 
 __all__ = [
+    "BACKENDS",
+    "FIDELITIES",
     "AttachedComponent",
+    "Backend",
+    "CampaignInterrupted",
     "CommunicationNode",
     "Component",
+    "ComponentCheckError",
     "ConfigurationError",
     "ContainerComponent",
+    "ContainerFirmwareComponent",
     "ContainerNode",
     "ContainerSimulation",
     "ContainerSimulator",
     "DependencyMissingError",
+    "EngineUnavailableError",
+    "Fidelity",
     "Firmware",
     "FirmwareComponent",
     "FirmwareContext",
-    "FirmwareNode",
-    "FirmwareProcessComponent",
-    "FirmwareThreadComponent",
+    "FormulaError",
+    "ImageMissingError",
+    "InProcessComponent",
     "InProcessFirmwareComponent",
     "InProcessFirmwareNode",
-    "InProcessSimulation",
-    "InProcessSimulator",
+    "InProcessNode",
     "LocalEnvironment",
     "Message",
     "MessageTypeError",
@@ -98,9 +113,10 @@ __all__ = [
     "NodeStartError",
     "NodeTimeoutError",
     "Participant",
-    "ParticipantComponent",
-    "ParticipantNode",
+    "PhysicsDivergedError",
     "ProcessComponent",
+    "ProcessFirmwareComponent",
+    "ProcessFirmwareNode",
     "ProcessNode",
     "ProcessSimulation",
     "ProcessSimulator",
@@ -108,11 +124,14 @@ __all__ = [
     "Requirement",
     "RequirementViolation",
     "ScenarioSimulation",
+    "SelfContainedSimulation",
+    "SelfContainedSimulator",
     "Simulation",
     "SimulationStopped",
     "Simulator",
     "StepContext",
     "Subscription",
+    "ThreadFirmwareComponent",
     "TraceError",
     "TransportError",
     "__version__",
@@ -123,21 +142,21 @@ __all__ = [
 
 if TYPE_CHECKING:
     from ._local import (
-        FirmwareNode,
-        FirmwareProcessComponent,
-        FirmwareThreadComponent,
+        InProcessComponent,
         InProcessFirmwareComponent,
         InProcessFirmwareNode,
-        InProcessSimulation,
-        InProcessSimulator,
+        InProcessNode,
         LocalEnvironment,
-        ParticipantComponent,
-        ParticipantNode,
         ProcessComponent,
+        ProcessFirmwareComponent,
+        ProcessFirmwareNode,
         ProcessNode,
         ProcessSimulation,
         ProcessSimulator,
         ScenarioSimulation,
+        SelfContainedSimulation,
+        SelfContainedSimulator,
+        ThreadFirmwareComponent,
     )
     from ._runtime import (
         Firmware,
@@ -152,15 +171,32 @@ if TYPE_CHECKING:
     from .docker import (
         AttachedComponent,
         ContainerComponent,
+        ContainerFirmwareComponent,
         ContainerNode,
         ContainerSimulation,
         ContainerSimulator,
         FirmwareComponent,
     )
-    from .requirements import Requirement, RequirementViolation
+    from .requirements import Requirement
+
+
+# Former names, kept as deprecated aliases: old name -> new name.
+_DEPRECATED = {
+    "ParticipantComponent": "InProcessComponent",
+    "ParticipantNode": "InProcessNode",
+    "FirmwareProcessComponent": "ProcessFirmwareComponent",
+    "FirmwareThreadComponent": "ThreadFirmwareComponent",
+    "FirmwareNode": "ProcessFirmwareNode",
+    "InProcessSimulator": "SelfContainedSimulator",
+    "InProcessSimulation": "SelfContainedSimulation",
+}
 
 
 def __getattr__(name: str) -> Any:
+    if name in _DEPRECATED:
+        from ._deps import renamed
+
+        return __getattr__(renamed(__name__, name, _DEPRECATED))
     module = _LAZY.get(name)
     if module is None:
         raise AttributeError(f"module 'multicosim' has no attribute {name!r}")

@@ -12,6 +12,7 @@
 from __future__ import annotations
 
 import argparse
+import functools
 import importlib
 import inspect
 import logging
@@ -19,18 +20,73 @@ import sys
 from collections.abc import Callable
 from typing import Any
 
-__all__ = ["main"]
+__all__ = ["HelpFormatter", "command_parser", "load_target", "main", "run_command"]
+
+DESCRIPTION = (
+    "multicosim: run component programs (participants, firmware), build the container images, "
+    "plot traces, remove what killed runs left behind, and run a PX4-compatible SITL."
+)
 
 
-def _load(target: str) -> Any:
+class HelpFormatter(argparse.HelpFormatter):
+    """Help that names every option's default (where it has a meaningful one)."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        text = action.help or ""
+        default = action.default
+        meaningful = default is not None and default is not False and default != argparse.SUPPRESS
+        if meaningful and "default" not in text:
+            text += " (default: %(default)s)"
+        return text
+
+
+def command_parser(prog: str, description: str) -> argparse.ArgumentParser:
+    """An argument parser for one of multicosim's commands: its subcommands' help alike."""
+    parser = argparse.ArgumentParser(
+        prog=prog, description=description, formatter_class=HelpFormatter
+    )
+    return parser
+
+
+def subcommands(parser: argparse.ArgumentParser, dest: str) -> Any:
+    """The subcommands of ``parser``, each with the same help formatting."""
+    parser_class: Any = functools.partial(argparse.ArgumentParser, formatter_class=HelpFormatter)
+    return parser.add_subparsers(dest=dest, required=True, parser_class=parser_class)
+
+
+def run_command(prog: str, run: Callable[[], int], *, verbose: bool = False) -> int:
+    """Run a command; a multicosim error is one line on stderr and exit status 1.
+
+    The traceback is for ``-v``: what went wrong and how to fix it is in the message.
+    """
+    from ._errors import MulticosimError
+
+    try:
+        return run()
+    except MulticosimError as exc:
+        if verbose:
+            raise
+        print(f"{prog}: error: {exc}", file=sys.stderr)
+        return 1
+
+
+def load_target(target: str) -> Any:
+    """The object ``MODULE:ATTRIBUTE`` names (ValueError if ``target`` is not of that form)."""
     module_name, sep, attr = target.partition(":")
     if not sep or not module_name or not attr:
-        raise SystemExit(f"error: expected MODULE:ATTRIBUTE, got {target!r}")
+        raise ValueError(f"expected MODULE:ATTRIBUTE, got {target!r}")
     module = importlib.import_module(module_name)
     obj: Any = module
     for part in attr.split("."):
         obj = getattr(obj, part)
     return obj
+
+
+def _load(target: str) -> Any:
+    try:
+        return load_target(target)
+    except ValueError as exc:
+        raise SystemExit(f"error: {exc}") from None
 
 
 def _build(factory: Callable[..., Any], config: str | None) -> Any:
@@ -119,9 +175,11 @@ def main(argv: list[str] | None = None) -> int:
         from .ardupilot.__main__ import main as ardupilot_main
 
         return ardupilot_main(argv[1:])
-    parser = argparse.ArgumentParser(prog="multicosim", description=__doc__.splitlines()[0])
-    parser.add_argument("-v", "--verbose", action="store_true", help="log debug messages")
-    sub = parser.add_subparsers(dest="command", required=True)
+    parser = command_parser("multicosim", DESCRIPTION)
+    parser.add_argument(
+        "-v", "--verbose", action="store_true", help="log debug messages; tracebacks on errors"
+    )
+    sub = subcommands(parser, "command")
 
     p = sub.add_parser("serve", help="serve a firmware until the simulation stops it")
     p.add_argument("target", help="MODULE:ATTRIBUTE of a @multicosim.firmware function")
@@ -141,17 +199,15 @@ def main(argv: list[str] | None = None) -> int:
     p = sub.add_parser("sweep", help="remove processes and containers left by killed runs")
     p.set_defaults(run=_sweep)
 
-    sub.add_parser("px4", help="PX4 tools: `multicosim px4 sitl` runs a standalone SITL")
-    sub.add_parser("ardupilot", help="ArduPilot tools: `multicosim ardupilot launch` (its image)")
+    sub.add_parser("px4", help="PX4 tools: 'multicosim px4 sitl' runs a standalone SITL")
+    sub.add_parser("ardupilot", help="ArduPilot tools: 'multicosim ardupilot launch' (its image)")
 
     p = sub.add_parser("plot", help="plot a trace: planned vs flown path, altitude, robustness")
     p.add_argument("trace", help="an MCAP trace written by multicosim")
     p.add_argument("-o", "--output", default=None, help="PNG to write (default: TRACE.png)")
     p.set_defaults(run=_plot)
 
-    images = sub.add_parser("images", help="container images").add_subparsers(
-        dest="images_command", required=True
-    )
+    images = subcommands(sub.add_parser("images", help="container images"), "images_command")
     p = images.add_parser("build", help="build multicosim's images locally (never pulls)")
     p.add_argument("--force", action="store_true", help="rebuild even if up to date")
     p.add_argument(
@@ -179,8 +235,7 @@ def main(argv: list[str] | None = None) -> int:
         format="%(asctime)s %(name)s %(levelname)s %(message)s",
         stream=sys.stderr,
     )
-    result: int = args.run(args)
-    return result
+    return run_command("multicosim", lambda: int(args.run(args)), verbose=args.verbose)
 
 
 if __name__ == "__main__":

@@ -7,7 +7,18 @@ from types import ModuleType
 
 from ._errors import DependencyMissingError
 
-__all__ = ["require"]
+__all__ = ["renamed", "require"]
+
+
+def renamed(module: str, old: str, renames: dict[str, str]) -> str:
+    """The new name of ``module.old`` (a deprecated alias in ``renames``), with a warning."""
+    import warnings
+
+    new = renames[old]
+    warnings.warn(
+        f"{module}.{old} is deprecated: use {module}.{new}", DeprecationWarning, stacklevel=3
+    )
+    return new
 
 
 def require(module: str, extra: str) -> ModuleType:

@@ -5,35 +5,63 @@ anything the harness raises on its own account::
 
     MulticosimError
     ├── ConfigurationError        invalid input, raised before anything starts
-    │   └── MessageTypeError      a message of the wrong type for a node or topic
+    │   ├── MessageTypeError      a message of the wrong type for a node or topic
+    │   └── FormulaError          an STL formula that does not parse (names line and column)
     ├── DependencyMissingError    an optional dependency is not installed (names the extra)
+    ├── EngineUnavailableError    the Docker engine cannot be reached
     ├── NodeError                 a running component misbehaved (carries name, exit code, log)
     │   ├── NodeStartError        it did not become ready
+    │   │   └── ImageMissingError   its image is not present locally (never pulled)
     │   ├── NodeTimeoutError      it did not answer in time
     │   └── NodeCrashedError      it exited while it was needed
     ├── RemoteError               a component raised while handling a message
     ├── TransportError            a message could not be carried or decoded
     ├── SimulationStopped         the simulation was stopped (component side)
-    └── TraceError                a trace could not be written or read
+    ├── PhysicsDivergedError      MuJoCo's integration diverged under this configuration
+    ├── RequirementViolation      a requirement does not hold (also an AssertionError)
+    ├── TraceError                a trace could not be written or read
+    ├── ComponentCheckError       multicosim.testing.check_component found a fault
+    └── CampaignInterrupted       Ctrl-C stopped a campaign (also a KeyboardInterrupt)
 
 ``Simulation.stop`` reports several failures at once as an ``ExceptionGroup`` of these.
+
+Exceptions of the libraries underneath are turned into these in one place,
+:func:`translate`: ZeroMQ's into ``TransportError``, the Docker SDK's into
+``EngineUnavailableError`` (or ``ImageMissingError``), rtamt's parse errors into
+``FormulaError``. Each classic base (``ValueError``, ``ImportError``, ``AssertionError``,
+``KeyboardInterrupt``) is kept where code outside multicosim relies on it.
 """
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from ._check import ComponentReport
+    from .campaign import CampaignResult
+    from .requirements import Evaluation
+
 __all__ = [
+    "CampaignInterrupted",
+    "ComponentCheckError",
     "ConfigurationError",
     "DependencyMissingError",
+    "EngineUnavailableError",
+    "FormulaError",
+    "ImageMissingError",
     "MessageTypeError",
     "MulticosimError",
     "NodeCrashedError",
     "NodeError",
     "NodeStartError",
     "NodeTimeoutError",
+    "PhysicsDivergedError",
     "RemoteError",
+    "RequirementViolation",
     "SimulationStopped",
     "TraceError",
     "TransportError",
+    "translate",
 ]
 
 
@@ -59,6 +87,23 @@ class MessageTypeError(ConfigurationError, TypeError):
     """A message of the wrong type was sent to a node or published on a topic."""
 
 
+class FormulaError(ConfigurationError):
+    """An STL formula that does not parse; ``line`` and ``column`` (0-based) locate the error."""
+
+    def __init__(self, formula: str, line: int, column: int, reason: str) -> None:
+        self.formula = formula
+        self.line = line
+        self.column = column
+        self.reason = reason
+        text = formula.splitlines()[line - 1] if formula.splitlines() else formula
+        pointer = f"\n    {text}\n    {' ' * column}^"
+        super().__init__(
+            "formula",
+            formula,
+            f"an STL formula (rtamt syntax); at line {line}, column {column}: {reason}{pointer}",
+        )
+
+
 class DependencyMissingError(MulticosimError, ImportError):
     """An optional dependency is missing; the message names the extra to install."""
 
@@ -68,6 +113,10 @@ class DependencyMissingError(MulticosimError, ImportError):
         super().__init__(
             f"{module!r} is required for this feature: pip install 'multicosim[{extra}]'"
         )
+
+
+class EngineUnavailableError(MulticosimError):
+    """The Docker engine cannot be reached (not installed, not running or no permission)."""
 
 
 class NodeError(MulticosimError):
@@ -99,6 +148,10 @@ class NodeError(MulticosimError):
 
 class NodeStartError(NodeError):
     """A component failed to start or to become ready."""
+
+
+class ImageMissingError(NodeStartError):
+    """A component's image is not present locally (multicosim never pulls images)."""
 
 
 class NodeTimeoutError(NodeError):
@@ -134,5 +187,104 @@ class SimulationStopped(MulticosimError):
     """Raised inside a component when its simulation is stopped while it waits for a step."""
 
 
+class PhysicsDivergedError(MulticosimError):
+    """MuJoCo's integration diverged (NaN or huge accelerations) under this configuration."""
+
+
+class RequirementViolation(MulticosimError, AssertionError):
+    """Raised by ``Requirement.check``: the requirement does not hold on a trajectory.
+
+    An ``AssertionError`` too, so that pytest reports it as a failed assertion.
+    """
+
+    def __init__(self, evaluation: Evaluation) -> None:
+        self.evaluation = evaluation
+        super().__init__(evaluation.explain())
+
+
 class TraceError(MulticosimError):
     """A trace could not be written or read back."""
+
+
+class ComponentCheckError(MulticosimError):
+    """``check_component`` found a fault; ``report`` lists every check and what failed."""
+
+    def __init__(self, report: ComponentReport) -> None:
+        self.report = report
+        super().__init__(str(report))
+
+
+class CampaignInterrupted(MulticosimError, KeyboardInterrupt):
+    """Ctrl-C stopped the campaign; ``result`` holds the samples that had finished.
+
+    A ``KeyboardInterrupt`` too, so that an uncaught one still ends the program (and pytest's
+    session) as Ctrl-C does.
+    """
+
+    def __init__(self, result: CampaignResult) -> None:
+        self.result = result
+        super().__init__(f"campaign interrupted after {len(result.results)} samples")
+
+
+# -- the libraries' exceptions -----------------------------------------------------------------
+
+
+def translate(exc: BaseException, *, name: str = "", formula: str = "") -> MulticosimError | None:
+    """The multicosim error that a library's exception ``exc`` stands for, or None.
+
+    ``name`` is the component or endpoint concerned, ``formula`` the STL
+    formula being parsed (any exception rtamt raises while parsing it is a ``FormulaError``).
+    The libraries are recognised by their exceptions' modules, so none is imported here.
+    """
+    if isinstance(exc, MulticosimError):
+        return exc
+    module = type(exc).__module__
+    if formula:
+        return _formula_error(formula, exc)
+    if module.startswith("zmq"):
+        return TransportError(f"{name + ': ' if name else ''}ZeroMQ: {exc}")
+    if module.startswith("docker"):
+        kinds = {cls.__name__ for cls in type(exc).__mro__}
+        explanation = getattr(exc, "explanation", None) or exc
+        if "APIError" not in kinds:  # no answer from the engine at all
+            return EngineUnavailableError(f"the Docker engine cannot be used: {exc}")
+        if name and "ImageNotFound" in kinds:
+            return ImageMissingError(
+                name, f"cannot start: its image is not present locally ({explanation})"
+            )
+        if name:
+            return NodeStartError(name, f"could not be created: {explanation}")
+    return None
+
+
+def _formula_error(formula: str, exc: BaseException) -> FormulaError:
+    # rtamt reports "RTAMT Exception: LINE:COLUMN: Syntax ERROR, ..." for parse errors, and
+    # bare KeyErrors and the like for some malformed input.
+    if type(exc).__name__ != "RTAMTException":
+        return FormulaError(formula, 1, 0, f"{type(exc).__name__}: {exc}")
+    message = str(exc).removeprefix("RTAMT Exception: ")
+    head, _, rest = message.partition(": ")
+    line_text, _, column_text = head.partition(":")
+    if line_text.isdigit() and column_text.isdigit():
+        reason = tidy_expected(rest.removeprefix("Syntax ERROR, ").strip())
+        return FormulaError(formula, int(line_text), int(column_text), reason)
+    return FormulaError(formula, 1, 0, message)
+
+
+def tidy_expected(message: str) -> str:
+    """An ANTLR message with only the readable tokens of its ``expecting {...}`` list."""
+    head, sep, expected = message.partition(" expecting ")
+    if not sep:
+        return message
+    names = [n.strip() for n in expected.strip("{}").split(",")]
+    names = [n for n in names if n and n != "<INVALID>"]
+    return f"{head}, expecting one of {', '.join(names)}" if names else head
+
+
+# Shown under the name users import them by: ``multicosim.NodeCrashedError`` in tracebacks and
+# reports (and pickles, which find them there too).
+for _name in __all__:
+    _value = globals()[_name]
+    if isinstance(_value, type):
+        _value.__module__ = "multicosim"
+del _name, _value

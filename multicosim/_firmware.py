@@ -1,7 +1,7 @@
 """Firmware nodes reached over ZeroMQ, and the components that start them locally.
 
 A firmware in a process (or a container, see ``multicosim.docker``) is a ROUTER socket
-that answers calls; the host's :class:`FirmwareNode` is the DEALER that calls it and runs
+that answers calls; the host's :class:`ProcessFirmwareNode` is the DEALER that calls it and runs
 the simulation's clock while it waits for the answer.
 """
 
@@ -11,7 +11,7 @@ import dataclasses
 import threading
 import time
 from collections.abc import Callable, Mapping, Sequence
-from typing import Any, Generic, TypeVar
+from typing import Any, Generic
 
 import msgspec
 import zmq
@@ -26,7 +26,7 @@ from ._errors import (
     NodeTimeoutError,
     RemoteError,
 )
-from ._messages import decode, encode, type_name
+from ._messages import MsgT, ReplyT, decode, encode, type_name
 from ._processes import check_port, default_name, split_command, start_process
 from ._runtime import Firmware
 from ._waits import (
@@ -39,14 +39,11 @@ from ._waits import (
 )
 
 __all__ = [
-    "FirmwareNode",
-    "FirmwareProcessComponent",
-    "FirmwareThreadComponent",
+    "ProcessFirmwareComponent",
+    "ProcessFirmwareNode",
+    "ThreadFirmwareComponent",
     "check_types",
 ]
-
-MsgT = TypeVar("MsgT")
-ReplyT = TypeVar("ReplyT")
 
 
 def check_types(msgtype: object, replytype: object) -> None:
@@ -56,7 +53,7 @@ def check_types(msgtype: object, replytype: object) -> None:
         raise ConfigurationError("replytype", replytype, "a message class or None")
 
 
-class FirmwareNode(Generic[MsgT, ReplyT]):
+class ProcessFirmwareNode(Generic[MsgT, ReplyT]):
     """A CommunicationNode reached over ZeroMQ: a firmware in a process or a container.
 
     ``send`` runs the simulation's clock while it waits, so the firmware's handler can step
@@ -196,7 +193,7 @@ class FirmwareNode(Generic[MsgT, ReplyT]):
 
 
 @dataclasses.dataclass(frozen=True)
-class FirmwareProcessComponent(Generic[MsgT, ReplyT]):
+class ProcessFirmwareComponent(Generic[MsgT, ReplyT]):
     """A firmware run as a local process, reached as a CommunicationNode over ZeroMQ.
 
     ``command`` may contain ``{port}``; with ``port=None`` the program binds any free port
@@ -223,7 +220,7 @@ class FirmwareProcessComponent(Generic[MsgT, ReplyT]):
         if self.name is None:
             object.__setattr__(self, "name", default_name(args))
 
-    def start(self, environment: LocalEnvironment) -> FirmwareNode[MsgT, ReplyT]:
+    def start(self, environment: LocalEnvironment) -> ProcessFirmwareNode[MsgT, ReplyT]:
         """Start the firmware process and wait for its handshake."""
         assert self.name is not None
         port = str(self.port or 0)
@@ -242,7 +239,7 @@ class FirmwareProcessComponent(Generic[MsgT, ReplyT]):
         if not hello.port:
             node.stop()
             raise NodeStartError(self.name, "joined the simulation without a firmware port")
-        return FirmwareNode(
+        return ProcessFirmwareNode(
             self.name,
             f"tcp://127.0.0.1:{hello.port}",
             msgtype=self.msgtype,
@@ -272,7 +269,7 @@ class _ThreadWatch:
 
 
 @dataclasses.dataclass(frozen=True)
-class FirmwareThreadComponent(Generic[MsgT, ReplyT]):
+class ThreadFirmwareComponent(Generic[MsgT, ReplyT]):
     """A firmware served by a thread of the simulation's process, over real sockets.
 
     It runs exactly as in a process or a container (same server, same protocol), which makes
@@ -293,7 +290,7 @@ class FirmwareThreadComponent(Generic[MsgT, ReplyT]):
         if self.name is None:
             object.__setattr__(self, "name", self.firmware.name)
 
-    def start(self, environment: LocalEnvironment) -> FirmwareNode[MsgT, ReplyT]:
+    def start(self, environment: LocalEnvironment) -> ProcessFirmwareNode[MsgT, ReplyT]:
         """Serve the firmware in a thread and wait for its handshake."""
         from ._runtime import serve
 
@@ -331,7 +328,7 @@ class FirmwareThreadComponent(Generic[MsgT, ReplyT]):
         except BaseException:
             halt()
             raise
-        return FirmwareNode(
+        return ProcessFirmwareNode(
             name,
             f"tcp://127.0.0.1:{hello.port}",
             msgtype=self.firmware.msgtype,

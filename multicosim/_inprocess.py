@@ -22,7 +22,7 @@ from ._errors import (
     SimulationStopped,
     TransportError,
 )
-from ._messages import decode, encode, type_name
+from ._messages import MsgT, ReplyT, decode, encode, type_name
 from ._runtime import (
     Firmware,
     FirmwareContext,
@@ -35,14 +35,11 @@ from ._runtime import (
 from ._waits import DEFAULT_SEND_TIMEOUT, check_timeout
 
 __all__ = [
+    "InProcessComponent",
     "InProcessFirmwareComponent",
     "InProcessFirmwareNode",
-    "ParticipantComponent",
-    "ParticipantNode",
+    "InProcessNode",
 ]
-
-MsgT = TypeVar("MsgT")
-ReplyT = TypeVar("ReplyT")
 
 
 class _Expired(BaseException):
@@ -236,7 +233,7 @@ class InProcessFirmwareComponent(Generic[MsgT, ReplyT]):
 ParticipantT = TypeVar("ParticipantT", bound=Participant)
 
 
-class ParticipantNode(Generic[ParticipantT]):
+class InProcessNode(Generic[ParticipantT]):
     """An in-process participant; ``participant`` is the live object (for inspection)."""
 
     def __init__(self, participant: ParticipantT, name: str) -> None:
@@ -252,13 +249,13 @@ class ParticipantNode(Generic[ParticipantT]):
 
 
 @dataclasses.dataclass(frozen=True)
-class ParticipantComponent(Generic[ParticipantT]):
+class InProcessComponent(Generic[ParticipantT]):
     """A participant (world, injector) stepped in the simulation's own process."""
 
     factory: Callable[[], ParticipantT]
     name: str
 
-    def start(self, environment: LocalEnvironment) -> ParticipantNode[ParticipantT]:
+    def start(self, environment: LocalEnvironment) -> InProcessNode[ParticipantT]:
         """Build the participant, set it up, and schedule it from the current instant."""
         participant = self.factory()
         ctx = StepContext(self.name, derive_seed(environment.seed, self.name))
@@ -273,4 +270,4 @@ class ParticipantComponent(Generic[ParticipantT]):
         )
         environment.scheduler.add(member)
         environment.scheduler.subscribe(member, ctx._take_topics())
-        return ParticipantNode(participant, self.name)
+        return InProcessNode(participant, self.name)

@@ -17,16 +17,16 @@ from __future__ import annotations
 from ._coordinator import Coordinator
 from ._environment import LocalEnvironment
 from ._firmware import (
-    FirmwareNode,
-    FirmwareProcessComponent,
-    FirmwareThreadComponent,
+    ProcessFirmwareComponent,
+    ProcessFirmwareNode,
+    ThreadFirmwareComponent,
     check_types,
 )
 from ._inprocess import (
+    InProcessComponent,
     InProcessFirmwareComponent,
     InProcessFirmwareNode,
-    ParticipantComponent,
-    ParticipantNode,
+    InProcessNode,
 )
 from ._processes import (
     ProcessComponent,
@@ -39,12 +39,14 @@ from ._processes import (
 from ._rundirs import remove_tree, runs_directory, sweep_stale_runs
 from ._scenario import ScenarioSimulation
 from ._simulators import (
-    InProcessSimulation,
-    InProcessSimulator,
     LocalSimulatorBase,
     ProcessSimulation,
     ProcessSimulator,
+    SelfContainedSimulation,
+    SelfContainedSimulator,
     config_json,
+    participant_command,
+    required_images,
 )
 from ._waits import (
     DEFAULT_SEND_TIMEOUT,
@@ -61,28 +63,30 @@ __all__ = [
     "DEFAULT_START_TIMEOUT",
     "DEFAULT_STEP_TIMEOUT",
     "Coordinator",
-    "FirmwareNode",
-    "FirmwareProcessComponent",
-    "FirmwareThreadComponent",
+    "InProcessComponent",
     "InProcessFirmwareComponent",
     "InProcessFirmwareNode",
-    "InProcessSimulation",
-    "InProcessSimulator",
+    "InProcessNode",
     "LocalEnvironment",
     "LocalSimulatorBase",
-    "ParticipantComponent",
-    "ParticipantNode",
     "ProcessComponent",
+    "ProcessFirmwareComponent",
+    "ProcessFirmwareNode",
     "ProcessHandle",
     "ProcessNode",
     "ProcessSimulation",
     "ProcessSimulator",
     "ScenarioSimulation",
+    "SelfContainedSimulation",
+    "SelfContainedSimulator",
+    "ThreadFirmwareComponent",
     "Watch",
     "config_json",
     "crashed",
     "default_name",
     "mark_reported",
+    "participant_command",
+    "required_images",
     "runs_directory",
     "sweep_stale_runs",
 ]

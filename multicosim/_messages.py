@@ -18,6 +18,17 @@ __all__ = ["Message", "decode", "encode", "json_schema", "type_name"]
 
 T = TypeVar("T")
 
+if TYPE_CHECKING:
+    # The message and reply types of a firmware default to Any where a component does not
+    # declare them (PEP 696: typing has it from Python 3.13, type checkers from
+    # typing_extensions, which is needed only while type checking).
+    import typing_extensions
+
+    MsgT = typing_extensions.TypeVar("MsgT", default=Any)
+    ReplyT = typing_extensions.TypeVar("ReplyT", default=Any)
+else:
+    MsgT = TypeVar("MsgT")
+    ReplyT = TypeVar("ReplyT")
 
 if TYPE_CHECKING:
     from typing_extensions import dataclass_transform

@@ -37,8 +37,9 @@ from ._errors import (
     NodeTimeoutError,
     SimulationStopped,
     TransportError,
+    translate,
 )
-from ._messages import decode, encode, type_name
+from ._messages import MsgT, ReplyT, decode, encode, type_name
 
 if TYPE_CHECKING:
     import numpy as np
@@ -59,8 +60,6 @@ __all__ = [
 log = logging.getLogger(__name__)
 
 T = TypeVar("T")
-MsgT = TypeVar("MsgT")
-ReplyT = TypeVar("ReplyT")
 
 # How often a waiting component checks that its parent still exists, so that a component
 # whose host was killed exits instead of lingering.
@@ -675,10 +674,14 @@ def serve(
     zctx = zctx or zmq.Context.instance()
     rpc = zctx.socket(zmq.ROUTER)
     wire.listen_options(rpc)
-    if port == 0:
-        rpc.bind_to_random_port(f"tcp://{host}")
-    else:
-        rpc.bind(f"tcp://{host}:{port}")
+    try:
+        if port == 0:
+            rpc.bind_to_random_port(f"tcp://{host}")
+        else:
+            rpc.bind(f"tcp://{host}:{port}")
+    except zmq.ZMQError as exc:  # the port is taken, or the host is not an address of ours
+        rpc.close(0)
+        raise translate(exc, name=f"firmware {name!r} on tcp://{host}:{port}") or exc from exc
     endpoint = rpc.getsockopt_string(zmq.LAST_ENDPOINT)
     bound = int(endpoint.rsplit(":", 1)[1])
     where = f"firmware {name!r} at {endpoint}"

@@ -18,11 +18,11 @@ from ._simulation import NodeSet
 from ._waits import DEFAULT_STEP_TIMEOUT, check_timeout
 
 __all__ = [
-    "InProcessSimulation",
-    "InProcessSimulator",
     "LocalSimulatorBase",
     "ProcessSimulation",
     "ProcessSimulator",
+    "SelfContainedSimulation",
+    "SelfContainedSimulator",
     "config_json",
 ]
 
@@ -235,12 +235,16 @@ def _wants_no_environment(component: Any) -> bool:
     return hint is None or hint is type(None)
 
 
-class InProcessSimulation(NodeSet):
-    """A running InProcessSimulator."""
+class SelfContainedSimulation(NodeSet):
+    """A running SelfContainedSimulator."""
 
 
-class InProcessSimulator:
-    """A simulator for self-contained in-process components (``Component[None, N]``)."""
+class SelfContainedSimulator:
+    """A simulator of self-contained components (``Component[None, N]``), in this process.
+
+    Its components need no environment: no clock, coordinator or seed (in-process
+    participants and firmware need a clock: they run on a ``ProcessSimulator``).
+    """
 
     def __init__(self) -> None:
         self._token = new_simulator_token()
@@ -254,14 +258,14 @@ class InProcessSimulator:
         self._components.append((node_id, component))
         return node_id
 
-    def start(self) -> InProcessSimulation:
+    def start(self) -> SelfContainedSimulation:
         """Start every component in add order."""
         if self._started:
             raise MulticosimError(
                 "this simulator was already started; create a new simulator for another run"
             )
         self._started = True
-        simulation = InProcessSimulation(self._token, "the in-process simulation")
+        simulation = SelfContainedSimulation(self._token, "the in-process simulation")
         try:
             for node_id, component in self._components:
                 simulation._add_node(node_id, component.start(None))
@@ -274,3 +278,17 @@ class InProcessSimulator:
 def config_json(config: object) -> str:
     """A configuration object as JSON, for passing to a component process on its command line."""
     return msgspec.json.encode(config).decode()
+
+
+def participant_command(factory: str, config: object) -> list[str]:
+    """The command line (after ``python -m``) of participant ``factory`` given ``config``.
+
+    The same in a process and in the runtime image, which has ``multicosim`` on its path.
+    """
+    return ["multicosim", "participant", factory, "--config", config_json(config)]
+
+
+def required_images(component: object) -> list[str]:
+    """The images ``component`` runs (empty for one that runs no container)."""
+    images = getattr(component, "required_images", None)
+    return list(images()) if callable(images) else []

@@ -56,7 +56,8 @@ import msgspec
 import numpy as np
 
 from ._deps import require
-from ._errors import ConfigurationError
+from ._errors import CampaignInterrupted, ConfigurationError
+from ._fidelity import check_fidelity
 from ._progress import ProgressBar, wanted
 from .requirements import Evaluation, Requirement
 
@@ -87,8 +88,6 @@ log = logging.getLogger(__name__)
 Simulate = Callable[[Any, str, int], object]
 
 STATUSES = ("ok", "violated", "error", "timeout", "lost")
-# As in multicosim.strategies, which needs Hypothesis: a campaign need not.
-FIDELITY_LEVELS = ("low", "medium", "high")
 # How long past its timeout a sample may run before the driver kills its worker: the
 # worker's own alarm normally ends it at the timeout; this catches code that never returns
 # to the interpreter (a C call that blocks).
@@ -721,14 +720,6 @@ class CampaignResult:
         )
 
 
-class CampaignInterrupted(KeyboardInterrupt):
-    """Ctrl-C stopped the campaign; ``result`` holds the samples that had finished."""
-
-    def __init__(self, result: CampaignResult) -> None:
-        self.result = result
-        super().__init__(f"campaign interrupted after {len(result.results)} samples")
-
-
 def _status(results: Sequence[SampleResult], retries: int) -> str:
     counts = collections.Counter(r.status for r in results)
     bad = counts["error"] + counts["timeout"] + counts["lost"]
@@ -773,8 +764,7 @@ class Campaign:
         on_result: Callable[[SampleResult], None] | None = None,
     ) -> None:
         check_simulate(simulate)
-        if fidelity not in FIDELITY_LEVELS:
-            raise ConfigurationError("fidelity", fidelity, f"one of {FIDELITY_LEVELS}")
+        check_fidelity(fidelity)
         self.seed = _check_seed(seed)
         if (
             isinstance(timeout, bool)

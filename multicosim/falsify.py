@@ -62,8 +62,9 @@ from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
 from ._errors import ConfigurationError
+from ._fidelity import FIDELITIES
 from ._progress import ProgressBar, wanted
-from .campaign import FIDELITY_LEVELS, Simulate, check_simulate
+from .campaign import Simulate, check_simulate
 from .requirements import Evaluation, Requirement
 
 __all__ = [
@@ -244,7 +245,7 @@ class Level:
 def _levels(levels: Sequence[str | Level | Simulate] | str) -> tuple[Level, ...]:
     given: Sequence[Any] = (levels,) if isinstance(levels, str | Level) else levels
     allowed = (
-        f"distinct levels, search level first: names from {FIDELITY_LEVELS}, Level objects "
+        f"distinct levels, search level first: names from {FIDELITIES}, Level objects "
         "or simulate functions"
     )
     out: list[Level] = []
@@ -254,7 +255,7 @@ def _levels(levels: Sequence[str | Level | Simulate] | str) -> tuple[Level, ...]
         if isinstance(item, Level):
             out.append(item)
         elif isinstance(item, str):
-            if item not in FIDELITY_LEVELS:
+            if item not in FIDELITIES:
                 raise ConfigurationError("levels", levels, allowed)
             out.append(Level(item))
         elif callable(item):

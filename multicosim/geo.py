@@ -20,6 +20,7 @@ from typing import NamedTuple
 
 __all__ = [
     "EARTH_RADIUS",
+    "GRAVITY",
     "Home",
     "LocalProjection",
     "Quaternion",
@@ -38,6 +39,9 @@ Quaternion = tuple[float, float, float, float]
 
 EARTH_RADIUS = 6_371_000.0
 """Metres: the sphere of PX4's map projection (``CONSTANTS_RADIUS_OF_EARTH``)."""
+
+GRAVITY = 9.80665
+"""m/s²: standard gravity, PX4's ``CONSTANTS_ONE_G``; every world integrates with it."""
 
 
 class Home(NamedTuple):

@@ -36,7 +36,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ._deps import require
-from ._errors import ConfigurationError, MulticosimError
+from ._errors import (
+    ConfigurationError,
+    FormulaError,
+    RequirementViolation,
+    tidy_expected,
+    translate,
+)
 
 __all__ = [
     "Evaluation",
@@ -45,6 +51,7 @@ __all__ = [
     "RequirementViolation",
     "Semantics",
     "Signals",
+    "add_observer",
     "assert_satisfied",
     "signals_of",
 ]
@@ -57,31 +64,6 @@ Derived = Callable[[Mapping[str, FloatArray]], ArrayLike]
 # Relative tolerance of the sampling period for discrete-time evaluation: simulated times
 # built by adding a float period drift by far less than this.
 _PERIOD_TOLERANCE = 0.01
-
-
-class FormulaError(ConfigurationError):
-    """An STL formula that does not parse; ``line`` and ``column`` (0-based) locate the error."""
-
-    def __init__(self, formula: str, line: int, column: int, reason: str) -> None:
-        self.formula = formula
-        self.line = line
-        self.column = column
-        self.reason = reason
-        text = formula.splitlines()[line - 1] if formula.splitlines() else formula
-        pointer = f"\n    {text}\n    {' ' * column}^"
-        super().__init__(
-            "formula",
-            formula,
-            f"an STL formula (rtamt syntax); at line {line}, column {column}: {reason}{pointer}",
-        )
-
-
-class RequirementViolation(MulticosimError, AssertionError):
-    """Raised by :meth:`Requirement.check`: the requirement does not hold on a trajectory."""
-
-    def __init__(self, evaluation: Evaluation) -> None:
-        self.evaluation = evaluation
-        super().__init__(evaluation.explain())
 
 
 @dataclasses.dataclass(frozen=True)
@@ -307,10 +289,8 @@ class Requirement:
         spec.spec = formula
         try:
             spec.parse()
-        except rtamt.RTAMTException as exc:
-            raise _formula_error(formula, str(exc)) from None
         except Exception as exc:  # rtamt raises bare KeyErrors etc. for malformed input
-            raise FormulaError(formula, 1, 0, f"{type(exc).__name__}: {exc}") from None
+            raise translate(exc, formula=formula) or exc from None
         return spec
 
     # -- evaluation -----------------------------------------------------------------------
@@ -513,7 +493,7 @@ def _identifiers(formula: str) -> tuple[str, ...]:
         tree = parser.specification_file()
     except _Stop as stop:
         line, column, msg = stop.args
-        raise FormulaError(formula, line, column, _tidy(msg)) from None
+        raise FormulaError(formula, line, column, tidy_expected(msg)) from None
     statements = list(tree.specification().getChildren())
     if len(statements) != 1 or type(statements[0]).__name__ != "AssertionContext":
         extra = statements[1] if len(statements) > 1 else statements[0]
@@ -531,27 +511,6 @@ def _identifiers(formula: str) -> tuple[str, ...]:
         if t.type == LtlLexer.Identifier and t.channel == antlr4.Token.DEFAULT_CHANNEL
     ]
     return tuple(dict.fromkeys(names))
-
-
-def _tidy(message: str) -> str:
-    # ANTLR lists every expected token, many as <INVALID>; keep the readable ones.
-    head, sep, expected = message.partition(" expecting ")
-    if not sep:
-        return message
-    names = [n.strip() for n in expected.strip("{}").split(",")]
-    names = [n for n in names if n and n != "<INVALID>"]
-    return f"{head}, expecting one of {', '.join(names)}" if names else head
-
-
-def _formula_error(formula: str, message: str) -> FormulaError:
-    # rtamt reports "RTAMT Exception: LINE:COLUMN: Syntax ERROR, ..." for parse errors.
-    message = message.removeprefix("RTAMT Exception: ")
-    head, _, rest = message.partition(": ")
-    line_text, _, column_text = head.partition(":")
-    if line_text.isdigit() and column_text.isdigit():
-        reason = _tidy(rest.removeprefix("Syntax ERROR, ").strip())
-        return FormulaError(formula, int(line_text), int(column_text), reason)
-    return FormulaError(formula, 1, 0, message)
 
 
 def _atoms(spec: Any) -> list[tuple[str, tuple[str, ...]]]:
@@ -576,13 +535,27 @@ def _atoms(spec: Any) -> list[tuple[str, tuple[str, ...]]]:
     return list(found.items())
 
 
-# -- the active trace session (see multicosim.trace) -----------------------------------------
+# -- observers of evaluations (multicosim.trace notes them in the active test's trace) ---------
+
+Observer = Callable[["Requirement", Signals, Evaluation], None]
+_observers: list[Observer] = []
+
+
+def add_observer(observer: Observer) -> Callable[[], None]:
+    """Call ``observer(requirement, signals, evaluation)`` after every evaluation.
+
+    Returns the function that removes it again. ``multicosim.trace`` adds one when it is
+    imported, so that a test's trace shows the requirements evaluated in it.
+    """
+    _observers.append(observer)
+
+    def remove() -> None:
+        if observer in _observers:
+            _observers.remove(observer)
+
+    return remove
 
 
 def _notify(requirement: Requirement, signals: Signals, evaluation: Evaluation) -> None:
-    """Hand the evaluation to the active trace session, if a test is recording one."""
-    import sys
-
-    trace = sys.modules.get("multicosim.trace")
-    if trace is not None:
-        trace._note_evaluation(requirement, signals, evaluation)
+    for observer in tuple(_observers):
+        observer(requirement, signals, evaluation)

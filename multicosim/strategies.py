@@ -12,10 +12,12 @@
         mst.target_robustness(requirement.evaluate(trajectory))
         requirement.check(trajectory)
 
-Every strategy shrinks towards the simple case: the lowest fidelity, the default world, one
-waypoint at the lowest altitude near home, zero noise. Bounds are checked when the strategy
-is built: an inverted range, or one outside what the configuration accepts, raises
-ConfigurationError naming the argument.
+These are the strategies every scenario shares; a scenario's own (missions, waypoints) are in
+its package (``multicosim.rover.strategies``, ``multicosim.px4.strategies``), with the same
+conventions: ranges are ``(low, high)`` tuples, checked when the strategy is built (an
+inverted range, or one outside what the configuration accepts, raises ConfigurationError
+naming the argument), and every strategy shrinks towards the simple case: the lowest
+fidelity, the default world, zero noise.
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ from typing import TYPE_CHECKING, Any, TypeVar
 
 from ._deps import require
 from ._errors import ConfigurationError
+from ._fidelity import FIDELITIES, check_fidelity
 
 require("hypothesis", "hypothesis")
 
@@ -37,22 +40,18 @@ from hypothesis import strategies as st  # noqa: E402
 if TYPE_CHECKING:
     from .mujoco import WorldConfig
     from .requirements import Evaluation
-    from .rover import Mission
 
 __all__ = [
-    "FIDELITY_LEVELS",
     "FreshSimulations",
     "check_range",
     "fidelities",
-    "geofence_waypoints",
     "noise_levels",
-    "rover_missions",
+    "simple_first",
     "target_robustness",
     "world_configs",
 ]
 
 T = TypeVar("T")
-FIDELITY_LEVELS = ("low", "medium", "high")
 Range = tuple[float, float]
 
 
@@ -84,17 +83,17 @@ def check_range(
     return float(lo), float(hi)
 
 
-def _simple_first(simple: T, strategy: st.SearchStrategy[T]) -> st.SearchStrategy[T]:
-    # one_of shrinks towards its first branch: the simple value is where failures end up.
+def simple_first(simple: T, strategy: st.SearchStrategy[T]) -> st.SearchStrategy[T]:
+    """``strategy``, shrinking towards ``simple`` (one_of shrinks towards its first branch)."""
     return st.one_of(st.just(simple), strategy)
 
 
-def fidelities(levels: Sequence[str] = FIDELITY_LEVELS) -> st.SearchStrategy[str]:
+def fidelities(levels: Sequence[str] = FIDELITIES) -> st.SearchStrategy[str]:
     """A fidelity level among ``levels``; shrinks towards the first (the cheapest)."""
     levels = tuple(levels)
-    bad = [level for level in levels if level not in FIDELITY_LEVELS]
+    bad = [level for level in levels if level not in FIDELITIES]
     if not levels or bad:
-        raise ConfigurationError("levels", levels, f"one or more of {FIDELITY_LEVELS}")
+        raise ConfigurationError("levels", levels, f"one or more of {FIDELITIES}")
     return st.sampled_from(levels)
 
 
@@ -128,10 +127,10 @@ def world_configs(
     # A larger step is cheaper: draw the fraction of the range below the largest step.
     step = st.floats(0.0, 1.0).map(lambda u: hi - u * (hi - lo))
     if lo <= base.timestep <= hi:
-        step = _simple_first(base.timestep, step)
+        step = simple_first(base.timestep, step)
     iters = st.integers(int(it_lo), int(it_hi))
     if it_lo <= base.iterations <= it_hi:
-        iters = _simple_first(base.iterations, iters)
+        iters = simple_first(base.iterations, iters)
 
     def build(ts: float, integrator: Any, solver: Any, n: int) -> WorldConfig:
         import dataclasses
@@ -163,89 +162,10 @@ def _choices(
     return values
 
 
-def geofence_waypoints(
-    home: tuple[float, float, float] | None = None,
-    *,
-    radius: float = 100.0,
-    altitude: Range = (10.0, 50.0),
-    count: tuple[int, int] = (1, 5),
-    waypoint: Callable[[float, float, float], T] | None = None,
-) -> st.SearchStrategy[list[Any]]:
-    """Missions of ``count`` waypoints within ``radius`` metres of ``home``.
-
-    Each waypoint is built as ``waypoint(latitude, longitude, altitude)`` (altitude relative
-    to home, in metres; default: a tuple), e.g. ``waypoint=px4.Waypoint``. Shrinks towards one
-    waypoint above home at the lowest altitude.
-    """
-    from .geo import local_to_geodetic
-    from .mujoco import DEFAULT_HOME
-
-    home = home if home is not None else DEFAULT_HOME
-    if (
-        not isinstance(home, tuple | list)
-        or len(home) != 3
-        or not (-90 <= home[0] <= 90 and -180 <= home[1] <= 180)
-    ):
-        raise ConfigurationError("home", home, "(latitude, longitude, altitude) in degrees, m")
-    if isinstance(radius, bool) or not isinstance(radius, int | float) or not 0 < radius <= 1e5:
-        raise ConfigurationError("radius", radius, "a geofence radius in (0, 100000] m")
-    alt_lo, alt_hi = check_range("altitude", altitude, low=0.0, high=10_000.0)
-    n_lo, n_hi = check_range("count", count, low=1, high=100, integer=True)
-    build: Callable[[float, float, float], Any] = waypoint or (lambda a, b, c: (a, b, c))
-    origin = (float(home[0]), float(home[1]), 0.0)
-
-    def point(r: float, bearing: float, alt: float) -> Any:
-        lat, lon, _ = local_to_geodetic(origin, r * math.sin(bearing), r * math.cos(bearing), 0.0)
-        return build(lat, lon, alt)
-
-    one = st.builds(
-        point,
-        st.floats(0.0, float(radius)),
-        st.floats(0.0, 2 * math.pi, exclude_max=True),
-        st.floats(alt_lo, alt_hi),
-    )
-    return st.lists(one, min_size=int(n_lo), max_size=int(n_hi))
-
-
-def rover_missions(
-    *,
-    speed: Range = (0.5, 10.0),
-    distance: Range = (0.0, 20.0),
-    turn_angle: Range = (-math.pi, math.pi),
-    final_distance: Range = (0.0, 20.0),
-    wait: Range = (0.0, 5.0),
-) -> st.SearchStrategy[Mission]:
-    """Rover missions (``multicosim.rover.Mission``); shrink towards slow, short, no wait."""
-    from .rover import MAX_SPEED, Mission
-
-    s_lo, s_hi = check_range("speed", speed, low=0.0, high=MAX_SPEED, low_open=True)
-    d = check_range("distance", distance, low=0.0, high=1e4)
-    a_lo, a_hi = check_range("turn_angle", turn_angle, low=-math.pi, high=math.pi)
-    f = check_range("final_distance", final_distance, low=0.0, high=1e4)
-    w = check_range("wait", wait, low=0.0, high=3600.0)
-    if a_lo == a_hi == 0.0:
-        raise ConfigurationError("turn_angle", turn_angle, "a range containing non-zero angles")
-    default = Mission(speed=s_lo)
-
-    def around(rng: tuple[float, float], simple: float) -> st.SearchStrategy[float]:
-        values = st.floats(*rng)
-        return _simple_first(simple, values) if rng[0] <= simple <= rng[1] else values
-
-    return st.builds(
-        Mission,
-        speed=st.floats(s_lo, s_hi),
-        distance=around(d, default.distance),
-        # A zero turn is not a mission (Mission rejects it).
-        turn_angle=around((a_lo, a_hi), default.turn_angle).filter(lambda a: a != 0.0),
-        final_distance=around(f, default.final_distance),
-        wait=around(w, 0.0),
-    )
-
-
 def noise_levels(high: float, *, low: float = 0.0) -> st.SearchStrategy[float]:
     """A noise standard deviation in [low, high]; shrinks towards ``low`` (no noise)."""
     lo, hi = check_range("noise", (low, high), low=0.0, high=math.inf)
-    return _simple_first(lo, st.floats(lo, hi))
+    return simple_first(lo, st.floats(lo, hi))
 
 
 def target_robustness(value: float | Evaluation, *, label: str = "robustness") -> float:
@@ -284,8 +204,8 @@ class FreshSimulations:
     """
 
     def __init__(self, *, fidelity: str | None = None, seed: int | None = None) -> None:
-        if fidelity is not None and fidelity not in FIDELITY_LEVELS:
-            raise ConfigurationError("fidelity", fidelity, f"one of {FIDELITY_LEVELS}")
+        if fidelity is not None:
+            check_fidelity(fidelity)
         if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or seed < 0):
             raise ConfigurationError("seed", seed, "a non-negative integer")
         self.fidelity = fidelity

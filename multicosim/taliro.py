@@ -38,7 +38,8 @@ from typing import Any
 
 from ._deps import require
 from ._errors import ConfigurationError
-from .campaign import FIDELITY_LEVELS, Simulate, check_simulate
+from ._fidelity import check_fidelity
+from .campaign import Simulate, check_simulate
 from .requirements import Evaluation, Requirement, Signals, load_rtamt
 
 load_rtamt()  # psy-taliro imports rtamt; this keeps its import warnings quiet
@@ -77,8 +78,7 @@ def model(
     numeric signals, or only ``signals``), usable with ``staliro.specifications.rtamt``.
     """
     check_simulate(simulate)
-    if fidelity not in FIDELITY_LEVELS:
-        raise ConfigurationError("fidelity", fidelity, f"one of {FIDELITY_LEVELS}")
+    check_fidelity(fidelity)
     from .requirements import signals_of
 
     def run(inputs: Any) -> Any:

@@ -5,6 +5,10 @@ environment, a container image included, can run them::
 
     python -m multicosim participant multicosim.testing:Cart
     python -m multicosim serve multicosim.testing:drive --port {port}
+
+:func:`check_component` checks a component of one's own the way multicosim runs it
+(in-process and as a process: determinism for a seed, idempotent stop, nothing left
+behind), as Gymnasium's ``check_env`` checks an environment.
 """
 
 from __future__ import annotations
@@ -12,18 +16,22 @@ from __future__ import annotations
 import os
 import time
 
+from ._check import Check, ComponentReport, check_component
 from ._messages import Message
 from ._runtime import FirmwareContext, StepContext, Subscription, firmware
 
 __all__ = [
     "Cart",
     "CartState",
+    "Check",
+    "ComponentReport",
     "Drive",
     "DriveReport",
     "Echo",
     "Misbehave",
     "Speed",
     "Stuck",
+    "check_component",
     "drive",
     "echo",
     "misbehave",

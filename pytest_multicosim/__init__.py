@@ -2,5 +2,12 @@
 
 Installing multicosim activates the plugin (``pytest11`` entry point
 ``pytest_multicosim.plugin``): the ``--mcs-*`` options, the ``fidelity`` marker and the
-``mcs_*`` fixtures.
+``mcs_*`` fixtures. ``Simulations`` is the type of the ``mcs_simulations`` fixture, for
+annotations.
 """
+
+from __future__ import annotations
+
+from .plugin import Simulations
+
+__all__ = ["Simulations"]

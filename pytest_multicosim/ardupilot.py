@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING, Any
 
 import pytest
 
-from .plugin import _TrackedSimulator
+from .plugin import tracked
 
 if TYPE_CHECKING:
     from multicosim.ardupilot import ArduPilotSimulation, Copter, Rover
@@ -98,7 +98,7 @@ def _simulator(
         seed=seed,
         params=params,
     )
-    return _TrackedSimulator(simulator, simulations)
+    return tracked(simulator, simulations)
 
 
 @pytest.fixture

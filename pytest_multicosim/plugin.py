@@ -22,28 +22,33 @@ import shutil
 import tempfile
 from collections.abc import Generator, Iterator
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
 import pytest
 
 from multicosim._errors import MulticosimError
+from multicosim._fidelity import BACKENDS, FIDELITIES
 
 from ._signals import SigtermAsInterrupt
 
+if TYPE_CHECKING:
+    from multicosim._local import ProcessSimulator
+    from multicosim.docker import ContainerSimulator
+
 __all__ = [
     "BACKENDS",
-    "FIDELITY_LEVELS",
     "FIXTURE_LIBRARIES",
     "KEEP_TRACES",
     "Settings",
     "SimulationRegistry",
+    "Simulations",
+    "docker_unavailable",
     "require_docker",
+    "tracked",
 ]
 
 log = logging.getLogger(__name__)
 
-FIDELITY_LEVELS = ("low", "medium", "high")
-BACKENDS = ("process", "docker")
 KEEP_TRACES = ("failed", "all", "none")
 _ARTIFACTS_DEFAULT = "mcs-artifacts"
 FIXTURE_LIBRARIES = (
@@ -54,6 +59,16 @@ FIXTURE_LIBRARIES = (
 )
 
 SimT = TypeVar("SimT")
+
+
+StartedT = TypeVar("StartedT", covariant=True)
+
+
+class _Simulator(Protocol[StartedT]):
+    def start(self) -> StartedT: ...
+
+
+SimulatorT = TypeVar("SimulatorT", bound=_Simulator[Any])
 
 
 @dataclasses.dataclass(frozen=True)
@@ -185,12 +200,12 @@ def _value(config: pytest.Config, name: str) -> tuple[str, str]:
 def parse_fidelity(text: str, source: str = "--mcs-fidelity") -> tuple[str, ...]:
     """Parse a comma list of fidelity levels; raise UsageError naming the allowed values."""
     levels = tuple(part.strip() for part in text.split(",") if part.strip())
-    bad = [level for level in levels if level not in FIDELITY_LEVELS]
+    bad = [level for level in levels if level not in FIDELITIES]
     if not levels or bad:
         raise pytest.UsageError(
             f"{source}: {text!r} names no known fidelity level "
             f"({', '.join(map(repr, bad)) or 'none given'}); "
-            f"allowed: {', '.join(FIDELITY_LEVELS)} (or a comma list of them)"
+            f"allowed: {', '.join(FIDELITIES)} (or a comma list of them)"
         )
     return tuple(dict.fromkeys(levels))
 
@@ -393,7 +408,7 @@ def pytest_generate_tests(metafunc: pytest.Metafunc) -> None:
     if marker is None and not wanted:
         return
     settings = metafunc.config.stash[settings_key]
-    listed: tuple[str, ...] = FIDELITY_LEVELS
+    listed: tuple[str, ...] = FIDELITIES
     if marker is not None:
         # A collection error names the test and its marker without a traceback through
         # pytest's internals; the run stops like on any other collection error.
@@ -401,8 +416,7 @@ def pytest_generate_tests(metafunc: pytest.Metafunc) -> None:
         where = f"@pytest.mark.fidelity({args}) on {metafunc.definition.nodeid}"
         if not marker.args or not all(isinstance(a, str) for a in marker.args):
             raise pytest.Collector.CollectError(
-                f"{where}: give one or more levels as strings; "
-                f"allowed: {', '.join(FIDELITY_LEVELS)}"
+                f"{where}: give one or more levels as strings; allowed: {', '.join(FIDELITIES)}"
             )
         try:
             listed = parse_fidelity(",".join(marker.args), source=where)
@@ -493,8 +507,8 @@ class SimulationRegistry:
             log.warning("stopping leftover simulations failed: %r", exc)
 
 
-class _TestSimulations:
-    """The per-test view of the registry, the object behind the ``mcs_simulations`` fixture."""
+class Simulations:
+    """The ``mcs_simulations`` fixture: starts simulations and stops them when the test ends."""
 
     def __init__(self, registry: SimulationRegistry) -> None:
         self._registry = registry
@@ -512,7 +526,7 @@ class _TestSimulations:
                 test_trace.attach(simulation)
         return simulation
 
-    def start(self, simulator: Any) -> Any:
+    def start(self, simulator: _Simulator[StartedT]) -> StartedT:
         """Start ``simulator`` and stop its simulation when the test ends."""
         return self.track(simulator.start())
 
@@ -521,13 +535,13 @@ class _TestSimulations:
 
 
 @pytest.fixture
-def mcs_simulations(request: pytest.FixtureRequest) -> Iterator[_TestSimulations]:
+def mcs_simulations(request: pytest.FixtureRequest) -> Iterator[Simulations]:
     """Starts simulations for the test and stops them at teardown, even after a failure.
 
     From the first use on, SIGTERM stops the run as Ctrl-C does, with teardown.
     """
     request.config.stash[sigterm_key].install()
-    view = _TestSimulations(request.config.stash[registry_key])
+    view = Simulations(request.config.stash[registry_key])
     request.node.stash[_view_key] = view
     try:
         yield view
@@ -535,26 +549,23 @@ def mcs_simulations(request: pytest.FixtureRequest) -> Iterator[_TestSimulations
         view.close()
 
 
-_view_key = pytest.StashKey[_TestSimulations]()
+_view_key = pytest.StashKey[Simulations]()
 
 
-class _TrackedSimulator:
-    """A simulator whose simulations the test stops at teardown."""
+def tracked(simulator: SimulatorT, simulations: Simulations) -> SimulatorT:
+    """``simulator`` itself, whose ``start`` hands each simulation to ``simulations``.
 
-    def __init__(self, inner: Any, view: _TestSimulations) -> None:
-        self._inner = inner
-        self._view = view
+    The fixtures return the simulator itself, not a proxy, so that it is an instance of its
+    own class; what it starts is stopped (and recorded) as the test ends.
+    """
+    start = simulator.start
 
-    def add(self, component: Any) -> Any:
-        """Add ``component`` to the wrapped simulator."""
-        return self._inner.add(component)
+    def start_tracked() -> Any:
+        return simulations.track(start())
 
-    def start(self) -> Any:
-        """Start the simulation; it is stopped when the test ends."""
-        return self._view.start(self._inner)
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self._inner, name)
+    # An instance attribute, not a method assignment: it shadows the class's own start.
+    setattr(simulator, "start", start_tracked)  # noqa: B010
+    return simulator
 
 
 def require_docker() -> None:
@@ -565,16 +576,19 @@ def require_docker() -> None:
     try:
         from multicosim.docker import engine_available
     except ImportError as exc:  # the docker extra is missing (DependencyMissingError)
-        _docker_unavailable(f"the docker SDK is not installed: {exc}")
+        docker_unavailable("no Docker SDK (pip install 'multicosim[docker]')", str(exc))
     reason = engine_available()
     if reason is not None:
-        _docker_unavailable(f"no Docker engine: {reason}")
+        from multicosim.docker._engine import engine_url
+
+        docker_unavailable(f"no Docker engine at {engine_url()}", reason)
 
 
-def _docker_unavailable(reason: str) -> None:
+def docker_unavailable(reason: str, detail: str = "") -> None:
+    """Skip with the one-line ``reason``; fail, with ``detail``, under MCS_REQUIRE_DOCKER=1."""
     # Read when needed, not at import: a test may set it for a pytester run.
     if os.environ.get("MCS_REQUIRE_DOCKER") == "1":
-        pytest.fail(f"MCS_REQUIRE_DOCKER=1 but {reason}", pytrace=False)
+        pytest.fail(f"MCS_REQUIRE_DOCKER=1 but {reason}: {detail}", pytrace=False)
     pytest.skip(reason)
 
 
@@ -595,26 +609,26 @@ def mcs_runtime_image() -> str:
         try:
             client().api.inspect_image(RUNTIME_IMAGE)
         except ImageNotFound:
-            _docker_unavailable(f"the runtime image {RUNTIME_IMAGE} could not be built: {exc}")
+            docker_unavailable(f"{RUNTIME_IMAGE} could not be built", str(exc))
         log.warning("using %s as it is: %s", RUNTIME_IMAGE, exc)
         return RUNTIME_IMAGE
 
 
 @pytest.fixture
 def mcs_simulator(
-    mcs_backend: str, mcs_seed: int, mcs_simulations: _TestSimulations
-) -> _TrackedSimulator:
+    mcs_backend: str, mcs_seed: int, mcs_simulations: Simulations
+) -> ProcessSimulator | ContainerSimulator:
     """A fresh simulator of the selected backend, seeded; its simulation always stops."""
     if mcs_backend == "docker":
         require_docker()
         from multicosim.docker import ContainerSimulator
 
-        inner: Any = ContainerSimulator(seed=mcs_seed)
+        inner: ProcessSimulator | ContainerSimulator = ContainerSimulator(seed=mcs_seed)
     else:
         from multicosim._local import ProcessSimulator
 
         inner = ProcessSimulator(seed=mcs_seed)
-    return _TrackedSimulator(inner, mcs_simulations)
+    return tracked(inner, mcs_simulations)
 
 
 @pytest.fixture(scope="session")
@@ -643,7 +657,7 @@ def mcs_fresh_simulation() -> Any:
     Session-scoped on purpose: Hypothesis rejects function-scoped fixtures in ``@given``
     tests because they are not reset between examples::
 
-        @given(mission=rover_missions())
+        @given(mission=rover.strategies.missions())
         def test_x(mcs_fresh_simulation, mission):
             with mcs_fresh_simulation(rover.Rover) as simulation: ...
     """
@@ -820,7 +834,7 @@ _FLIGHT_LOG_VIEWERS = {
 }
 
 
-def _save_logs(view: _TestSimulations, dest: Path) -> dict[str, tuple[Path, str]]:
+def _save_logs(view: Simulations, dest: Path) -> dict[str, tuple[Path, str]]:
     saved: dict[str, tuple[Path, str]] = {}
     for sim in view.simulations:
         logs = getattr(sim, "logs", None)

@@ -31,6 +31,10 @@ from typing import TYPE_CHECKING, Any
 
 import pytest
 
+from multicosim._fidelity import check_fidelity
+
+from .plugin import tracked
+
 if TYPE_CHECKING:
     from multicosim.px4 import PX4, SITL, MuJoCo, PX4Simulation
 
@@ -165,34 +169,13 @@ def px4_simulator(
         request.getfixturevalue("mcs_runtime_image")
     simulator = PX4(
         px4_world,
-        fidelity=mcs_fidelity,  # type: ignore[arg-type]  # validated by PX4
+        fidelity=check_fidelity(mcs_fidelity),
         backend=mcs_backend,
         seed=mcs_seed,
         params=px4_params,
         firmware=firmware,
     )
-    return _Tracked(simulator, mcs_simulations)  # type: ignore[return-value]
-
-
-class _Tracked:
-    """A PX4 simulator whose simulation the test's registry stops."""
-
-    def __init__(self, inner: PX4, simulations: Any) -> None:
-        self._inner = inner
-        self._simulations = simulations
-
-    def add(self, component: Any) -> Any:
-        return self._inner.add(component)
-
-    def start(self) -> PX4Simulation:
-        simulation: PX4Simulation = self._simulations.start(self._inner)
-        return simulation
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self._inner, name)
-
-    def __repr__(self) -> str:
-        return f"tracked {self._inner!r}"
+    return tracked(simulator, mcs_simulations)
 
 
 @pytest.fixture

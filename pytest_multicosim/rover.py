@@ -23,6 +23,10 @@ from typing import TYPE_CHECKING, Any
 
 import pytest
 
+from multicosim._fidelity import check_fidelity
+
+from .plugin import tracked
+
 if TYPE_CHECKING:
     from multicosim.mujoco import WorldConfig
     from multicosim.rover import Rover, RoverSimulation, SensorNoise
@@ -68,34 +72,13 @@ def rover_simulator(
     if mcs_backend == "docker":
         request.getfixturevalue("mcs_runtime_image")
     rover = Rover(
-        fidelity=mcs_fidelity,  # type: ignore[arg-type]  # validated by Rover
+        fidelity=check_fidelity(mcs_fidelity),
         backend=mcs_backend,
         seed=mcs_seed,
         world=rover_world_config,
         noise=rover_noise,
     )
-    return _Tracked(rover, mcs_simulations)  # type: ignore[return-value]
-
-
-class _Tracked:
-    """A Rover whose simulation the test's registry stops."""
-
-    def __init__(self, inner: Rover, simulations: Any) -> None:
-        self._inner = inner
-        self._simulations = simulations
-
-    def add(self, component: Any) -> Any:
-        return self._inner.add(component)
-
-    def start(self) -> RoverSimulation:
-        simulation: RoverSimulation = self._simulations.start(self._inner)
-        return simulation
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self._inner, name)
-
-    def __repr__(self) -> str:
-        return repr(self._inner)
+    return tracked(rover, mcs_simulations)
 
 
 @pytest.fixture

@@ -116,7 +116,8 @@ def distance_to_path(points: np.ndarray, path: np.ndarray) -> np.ndarray:
     ap = points[:, None, :] - a[None, :, :]
     t = np.clip((ap * ab).sum(-1) / (ab * ab).sum(-1), 0.0, 1.0)
     nearest = a[None] + t[..., None] * ab[None]
-    return np.sqrt(((points[:, None, :] - nearest) ** 2).sum(-1)).min(axis=1)
+    distances: np.ndarray = np.sqrt(((points[:, None, :] - nearest) ** 2).sum(-1)).min(axis=1)
+    return distances
 
 
 def rover_lane(sample: Mapping[str, Any], fidelity: str, seed: int) -> dict[str, Any]:
@@ -128,7 +129,7 @@ def rover_lane(sample: Mapping[str, Any], fidelity: str, seed: int) -> dict[str,
     spoof = attacks.Drift(rate=(sample["east"], sample["north"], 0.0), start=sample["start"])
     attacks.inject(simulator, "gps", [spoof])
     truth = _Truth()
-    simulator.add(mcs.ParticipantComponent(lambda: truth, name="truth"))
+    simulator.add(mcs.InProcessComponent(lambda: truth, name="truth"))
     with simulator.start() as simulation:
         simulation.controller.send(mission)
     off = distance_to_path(np.array(truth.points), planned_path(mission))

@@ -36,7 +36,7 @@ def wp(home: ardupilot.Home, north: float, east: float, alt: float) -> ardupilot
     return ardupilot.Waypoint(lat, lon, alt)
 
 
-def true_ne(home: ardupilot.Home, sample: ardupilot.Sample) -> tuple[float, float]:
+def true_ne(home: ardupilot.Home, sample: ardupilot.FlightSample) -> tuple[float, float]:
     """The world's true north/east position of ``sample``."""
     return LocalProjection(home.lat, home.lon).project(sample.true_lat, sample.true_lon)
 

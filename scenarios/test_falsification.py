@@ -24,7 +24,7 @@ import multicosim.px4 as px4
 import multicosim.strategies as mst
 from multicosim.attacks import strategies as ast
 from multicosim.falsify import HypothesisSearch, falsify
-from multicosim.geo import EARTH_RADIUS, LocalProjection
+from multicosim.geo import LocalProjection
 from multicosim.requirements import Requirement
 
 HOME = px4.Home()
@@ -44,8 +44,10 @@ MISSION = px4.Configuration([wp(0, 40, 10)], end="hold")
 
 def estimate_error(s: Any) -> Any:
     """Horizontal distance (m) between the autopilot's estimate and the world's truth."""
-    north = np.radians(s["lat"] - s["true_lat"]) * EARTH_RADIUS
-    east = np.radians(s["lon"] - s["true_lon"]) * EARTH_RADIUS * math.cos(math.radians(HOME.lat))
+    projection = LocalProjection(HOME.lat, HOME.lon)
+    estimate = [projection.project(lat, lon) for lat, lon in zip(s["lat"], s["lon"], strict=True)]
+    truth = [projection.project(*p) for p in zip(s["true_lat"], s["true_lon"], strict=True)]
+    north, east = (np.asarray(estimate) - np.asarray(truth)).T
     return np.hypot(north, east)
 
 
@@ -110,13 +112,14 @@ def test_gps_spoof_breaks_tracking_and_shrinks_to_the_limit(mcs_seed: int) -> No
         seed=mcs_seed,
     )
     assert result.falsified, result.summary()
-    spoof = result.counterexample.example  # type: ignore[union-attr]
+    assert result.counterexample is not None
+    spoof = result.counterexample.example
     assert isinstance(spoof.offset, tuple)
     size = math.hypot(spoof.offset[0], spoof.offset[1])
     # Shrunk to the limit: the estimate follows the spoof (overshooting it a little), so the
     # error is about the offset and the smallest spoof that breaks the requirement is ~5 m.
     assert size == pytest.approx(LIMIT, abs=1.01), result.summary()
-    low = result.counterexample.results["low"]  # type: ignore[union-attr]
+    low = result.counterexample.results["low"]
     assert -1.5 < low.evaluation.robustness < 0
 
 

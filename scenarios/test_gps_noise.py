@@ -54,7 +54,7 @@ class Probe:
 def probe(simulator: Any, topic: str, tp: type[Any], period: float, name: str = "probe") -> Probe:
     """Add a probe on ``topic`` to ``simulator`` (after any injector, before the firmware)."""
     recorder = Probe(topic, tp, period)
-    simulator.add(mcs.ParticipantComponent(lambda: recorder, name=name))
+    simulator.add(mcs.InProcessComponent(lambda: recorder, name=name))
     return recorder
 
 
@@ -121,6 +121,7 @@ def test_rover_gps_spoof_pulls_the_rover_off_its_path(
 ) -> None:
     # 2 m ahead (east, the first leg's direction) from t = 2 s, during the first leg.
     injector = gps_noise(spoof=(2.0, 0.0, 0.0), start=2.0)
+    assert isinstance(injector.config, attacks.InjectorConfig)  # the rover's is an injector
     truth = probe(rover_simulator, injector.config.source, Position, 0.025)
     trajectory = rover_simulator.start().controller.send(ROVER_MISSION)
     assert trajectory.completed, trajectory.reason
@@ -140,6 +141,7 @@ def test_rover_heading_attack_changes_its_turn(
 ) -> None:
     # During the turn (about 3.2 s to 4.1 s) the compass jumps 20 degrees further left.
     injector = gps_noise(sensor="magnetometer", spoof=math.radians(20.0), start=3.5)
+    assert isinstance(injector.config, attacks.InjectorConfig)  # the rover's is an injector
     truth = probe(rover_simulator, injector.config.source, rover.MagneticField, 0.025)
     trajectory = rover_simulator.start().controller.send(ROVER_MISSION)
     assert trajectory.completed, trajectory.reason

@@ -14,6 +14,7 @@ import pytest
 
 import multicosim.px4 as px4
 from multicosim.geo import LocalProjection
+from pytest_multicosim import Simulations
 
 HOME = px4.Home()
 PROJ = LocalProjection(HOME.lat, HOME.lon)
@@ -29,12 +30,12 @@ def wp(north: float, east: float, alt: float) -> px4.Waypoint:
     return px4.Waypoint(lat, lon, alt)
 
 
-def true_ne(sample: px4.Sample) -> tuple[float, float]:
+def true_ne(sample: px4.FlightSample) -> tuple[float, float]:
     """The world's true north/east position of ``sample``."""
     return PROJ.project(sample.true_lat, sample.true_lon)
 
 
-def sample_at(result: px4.MissionResult, time: float) -> px4.Sample:
+def sample_at(result: px4.MissionResult, time: float) -> px4.FlightSample:
     """The trajectory sample closest to simulated ``time``."""
     return min(result.trajectory, key=lambda s: abs(s.time - time))
 
@@ -121,7 +122,7 @@ def test_same_seed_gives_the_same_trajectory(
     px4_simulator: px4.PX4,
     mcs_seed: int,
     px4_params: dict[str, float],
-    mcs_simulations: object,
+    mcs_simulations: Simulations,
 ) -> None:
     config = px4.Configuration([wp(20, 10, 8)], end="hold", time_limit=40.0)
     again = px4.PX4(
@@ -135,7 +136,7 @@ def test_same_seed_gives_the_same_trajectory(
     first = px4_simulator.start()
     results = [first.firmware.send(config)]
     first.stop()
-    second = mcs_simulations.start(again)  # type: ignore[attr-defined]
+    second = mcs_simulations.start(again)
     results.append(second.firmware.send(config))
     assert results[0].completed, results[0].reason
     if px4_simulator.firmware is None:

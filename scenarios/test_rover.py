@@ -18,6 +18,7 @@ import pytest
 
 import multicosim.rover as rover
 from multicosim.rover import Mission, RoverSimulation, Trajectory, planned_endpoint
+from pytest_multicosim import Simulations
 
 ALL_LEVELS = ("low", "medium", "high")
 
@@ -35,7 +36,7 @@ TURN_TOLERANCE = {
 }
 
 
-def _segment(trajectory: Trajectory, state: str) -> list[rover.Sample]:
+def _segment(trajectory: Trajectory, state: str) -> list[rover.SensedSample]:
     return [s for s in trajectory if s.state == state]
 
 
@@ -124,7 +125,9 @@ def test_abort_stops_the_rover(rover_simulation: RoverSimulation, abort_at: floa
 
 
 @pytest.mark.fidelity(*ALL_LEVELS)
-def test_same_seed_same_trajectory(rover_simulator: rover.Rover, mcs_simulations: object) -> None:
+def test_same_seed_same_trajectory(
+    rover_simulator: rover.Rover, mcs_simulations: Simulations
+) -> None:
     """Determinism: the same seed reproduces the trajectory bit for bit."""
     mission = Mission(speed=3.0, wait=0.2, distance=3.0, final_distance=3.0)
     again = rover.Rover(
@@ -137,7 +140,7 @@ def test_same_seed_same_trajectory(rover_simulator: rover.Rover, mcs_simulations
     first = rover_simulator.start()
     runs = [first.controller.send(mission)]
     first.stop()
-    second = mcs_simulations.start(again)  # type: ignore[attr-defined]
+    second = mcs_simulations.start(again)
     runs.append(second.controller.send(mission))
     assert runs[0].completed, runs[0].reason
     assert runs[0] == runs[1]

@@ -15,6 +15,17 @@ EXPECTED = {
     "ContainerNode",
     "ContainerSimulation",
     "ContainerSimulator",
+    "CampaignInterrupted",
+    "ComponentCheckError",
+    "EngineUnavailableError",
+    "BACKENDS",
+    "Backend",
+    "FIDELITIES",
+    "Fidelity",
+    "FormulaError",
+    "ImageMissingError",
+    "PhysicsDivergedError",
+    "ContainerFirmwareComponent",
     "FirmwareComponent",
     "Requirement",
     "RequirementViolation",
@@ -25,13 +36,13 @@ EXPECTED = {
     "DependencyMissingError",
     "Firmware",
     "FirmwareContext",
-    "FirmwareNode",
-    "FirmwareProcessComponent",
-    "FirmwareThreadComponent",
+    "ProcessFirmwareNode",
+    "ProcessFirmwareComponent",
+    "ThreadFirmwareComponent",
     "InProcessFirmwareComponent",
     "InProcessFirmwareNode",
-    "InProcessSimulation",
-    "InProcessSimulator",
+    "SelfContainedSimulation",
+    "SelfContainedSimulator",
     "LocalEnvironment",
     "Message",
     "MessageTypeError",
@@ -43,8 +54,8 @@ EXPECTED = {
     "NodeStartError",
     "NodeTimeoutError",
     "Participant",
-    "ParticipantComponent",
-    "ParticipantNode",
+    "InProcessComponent",
+    "InProcessNode",
     "ProcessComponent",
     "ProcessNode",
     "ProcessSimulation",
@@ -72,7 +83,7 @@ def test_exported_names_are_the_intended_ones() -> None:
 
 def test_unknown_attribute_is_an_attribute_error() -> None:
     with pytest.raises(AttributeError, match="no attribute 'Nope'"):
-        _ = mcs.Nope  # type: ignore[attr-defined]
+        _ = mcs.Nope
 
 
 def test_import_multicosim_stays_light() -> None:
@@ -117,3 +128,35 @@ def test_require_names_the_extra_for_a_missing_module() -> None:
     with pytest.raises(mcs.DependencyMissingError, match=r"multicosim\[trace\]") as info:
         require("surely_not_installed_module", "trace")
     assert (info.value.module, info.value.extra) == ("surely_not_installed_module", "trace")
+
+
+@pytest.mark.parametrize(
+    ("old", "new"),
+    [
+        ("ParticipantComponent", "InProcessComponent"),
+        ("ParticipantNode", "InProcessNode"),
+        ("FirmwareProcessComponent", "ProcessFirmwareComponent"),
+        ("FirmwareThreadComponent", "ThreadFirmwareComponent"),
+        ("FirmwareNode", "ProcessFirmwareNode"),
+        ("InProcessSimulator", "SelfContainedSimulator"),
+        ("InProcessSimulation", "SelfContainedSimulation"),
+    ],
+)
+def test_former_names_are_deprecated_aliases(old: str, new: str) -> None:
+    with pytest.warns(DeprecationWarning, match=f"use multicosim.{new}"):
+        assert getattr(mcs, old) is getattr(mcs, new)
+    assert old not in mcs.__all__
+
+
+def test_former_px4_sample_is_a_deprecated_alias() -> None:
+    import multicosim.px4 as px4
+
+    with pytest.warns(DeprecationWarning, match="use multicosim.px4.FlightSample"):
+        assert px4.Sample is px4.FlightSample
+
+
+def test_the_papers_names_are_aliases() -> None:
+    import multicosim.docker
+
+    assert mcs.FirmwareComponent is mcs.ContainerFirmwareComponent
+    assert multicosim.docker.FirmwareComponent is mcs.ContainerFirmwareComponent

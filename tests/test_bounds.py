@@ -83,7 +83,7 @@ def test_rover_mission_bounds(field: str, value: float, allowed: str) -> None:
         (lambda: mcs.ProcessSimulator(step_timeout=True), "step_timeout"),
         (lambda: mcs.ProcessSimulator(realtime=1e-9), "realtime"),
         (lambda: mcs.ProcessSimulator(realtime=math.inf), "realtime"),
-        (lambda: mcs.FirmwareProcessComponent("x", timeout=math.inf), "timeout"),
+        (lambda: mcs.ProcessFirmwareComponent("x", timeout=math.inf), "timeout"),
         (lambda: mcs.ProcessComponent("x", start_timeout=math.nan), "start_timeout"),
         (lambda: mcs.InProcessFirmwareComponent(testing.echo, timeout=-1.0), "timeout"),
     ],
@@ -148,7 +148,7 @@ def test_serve_logs_the_port_it_bound(fixed: bool) -> None:
         if fixed:
             assert bound == port
         # The port in the log is the one that answers.
-        node: mcs.FirmwareNode[testing.Echo, testing.Echo] = mcs.FirmwareNode(
+        node: mcs.ProcessFirmwareNode[testing.Echo, testing.Echo] = mcs.ProcessFirmwareNode(
             "echo",
             f"tcp://127.0.0.1:{bound}",
             msgtype=testing.Echo,

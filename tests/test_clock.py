@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import time
 from dataclasses import dataclass, field
 
@@ -60,10 +61,14 @@ class Sink:
         self.seen.extend((ctx.time, m.n) for m in self.sub.messages)
 
 
-def _run(*participants: object, duration: float, seed: int = 0) -> mcs.ProcessSimulation:
+def _same(participant: mcs.Participant) -> mcs.Participant:
+    return participant
+
+
+def _run(*participants: mcs.Participant, duration: float, seed: int = 0) -> mcs.ProcessSimulation:
     simulator = mcs.ProcessSimulator(seed=seed)
     for i, p in enumerate(participants):
-        simulator.add(mcs.ParticipantComponent(lambda p=p: p, name=f"p{i}"))
+        simulator.add(mcs.InProcessComponent(functools.partial(_same, p), name=f"p{i}"))
     simulation = simulator.start()
     try:
         simulation.advance(duration)
@@ -107,7 +112,7 @@ def test_periods_are_exact_integers() -> None:
 
 def test_firmware_drives_the_clock_and_it_stops_between_calls() -> None:
     simulator = mcs.ProcessSimulator()
-    cart = simulator.add(mcs.ParticipantComponent(testing.Cart, name="cart"))
+    cart = simulator.add(mcs.InProcessComponent(testing.Cart, name="cart"))
     driver = simulator.add(mcs.InProcessFirmwareComponent(testing.drive))
     with simulator.start() as simulation:
         report = simulation.get(driver).send(testing.Drive(speed=2.0, steps=4))
@@ -128,7 +133,7 @@ def test_same_seed_same_noise_other_seed_other_noise() -> None:
     def noises(seed: int) -> list[float]:
         sink_cart = testing.Cart(noise=0.5)
         simulator = mcs.ProcessSimulator(seed=seed)
-        simulator.add(mcs.ParticipantComponent(lambda: sink_cart, name="cart"))
+        simulator.add(mcs.InProcessComponent(lambda: sink_cart, name="cart"))
         driver = simulator.add(mcs.InProcessFirmwareComponent(testing.drive))
         with simulator.start() as simulation:
             report = simulation.get(driver).send(testing.Drive(speed=1.0, steps=5))
@@ -140,7 +145,7 @@ def test_same_seed_same_noise_other_seed_other_noise() -> None:
 
 def test_realtime_paces_simulated_time() -> None:
     simulator = mcs.ProcessSimulator(realtime=4.0)
-    simulator.add(mcs.ParticipantComponent(Source, name="source"))
+    simulator.add(mcs.InProcessComponent(Source, name="source"))
     with simulator.start() as simulation:
         start = time.monotonic()
         simulation.advance(0.4)
@@ -189,9 +194,9 @@ def _clock_reader(msg: testing.Echo, ctx: mcs.FirmwareContext) -> float:
 
 def test_a_handler_starts_at_the_current_simulated_time() -> None:
     simulator = mcs.ProcessSimulator()
-    simulator.add(mcs.ParticipantComponent(testing.Cart, name="cart"))
+    simulator.add(mcs.InProcessComponent(testing.Cart, name="cart"))
     inproc = simulator.add(mcs.InProcessFirmwareComponent(_clock_reader))
-    threaded = simulator.add(mcs.FirmwareThreadComponent(_clock_reader, name="threaded"))
+    threaded = simulator.add(mcs.ThreadFirmwareComponent(_clock_reader, name="threaded"))
     with simulator.start() as simulation:
         simulation.advance(0.25)
         assert simulation.get(inproc).send(testing.Echo(text="")) == pytest.approx(0.25)

@@ -33,7 +33,7 @@ if via_shell:  # "; true": the shell must not exec the program, it stays its par
 simulator = mcs.ProcessSimulator(run_dir=sys.argv[2])
 simulator.add(mcs.ProcessComponent(command, name="stuck"))
 simulator.add(
-    mcs.FirmwareProcessComponent("python -m multicosim serve multicosim.testing:echo")
+    mcs.ProcessFirmwareComponent("python -m multicosim serve multicosim.testing:echo")
 )
 simulation = simulator.start()
 print("started", flush=True)
@@ -109,7 +109,7 @@ def test_components_die_with_their_host_mid_step(
 @pytest.mark.parametrize("how", ["spin", "step"])
 def test_looping_in_process_firmware_times_out(how: str) -> None:
     simulator = mcs.ProcessSimulator()
-    simulator.add(mcs.ParticipantComponent(testing.Cart, name="cart"))
+    simulator.add(mcs.InProcessComponent(testing.Cart, name="cart"))
     node_id = simulator.add(mcs.InProcessFirmwareComponent(testing.misbehave, timeout=0.3))
     with simulator.start() as simulation:
         node = simulation.get(node_id)

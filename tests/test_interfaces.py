@@ -65,7 +65,7 @@ def test_component_started_directly_like_the_paper() -> None:
 
 def test_in_process_simulator_runs_component_none() -> None:
     log: list[str] = []
-    simulator = mcs.InProcessSimulator()
+    simulator = mcs.SelfContainedSimulator()
     node_id = simulator.add(GcasComponent(gain=0.5, log=log))
     with simulator.start() as simulation:
         node = simulation.get(node_id)
@@ -84,7 +84,7 @@ def test_process_simulator_accepts_component_none() -> None:
 
 def test_stop_is_reverse_order_and_reports_every_failure() -> None:
     log: list[str] = []
-    simulator = mcs.InProcessSimulator()
+    simulator = mcs.SelfContainedSimulator()
     simulator.add(FailingComponent("first", log))
     simulator.add(GcasComponent(log=log, name="middle"))
     simulator.add(FailingComponent("last", log))
@@ -101,7 +101,7 @@ def test_stop_is_reverse_order_and_reports_every_failure() -> None:
 
 
 def test_get_with_a_node_id_from_another_simulator() -> None:
-    a, b = mcs.InProcessSimulator(), mcs.InProcessSimulator()
+    a, b = mcs.SelfContainedSimulator(), mcs.SelfContainedSimulator()
     a.add(GcasComponent())
     foreign = b.add(GcasComponent())
     with a.start() as simulation, pytest.raises(mcs.ConfigurationError, match="node_id"):
@@ -109,14 +109,14 @@ def test_get_with_a_node_id_from_another_simulator() -> None:
 
 
 def test_starting_a_simulator_twice_is_an_error() -> None:
-    simulator = mcs.InProcessSimulator()
+    simulator = mcs.SelfContainedSimulator()
     simulator.add(GcasComponent())
     with simulator.start(), pytest.raises(mcs.MulticosimError, match="already started"):
         simulator.start()
 
 
 def test_node_id_equality_and_repr() -> None:
-    simulator = mcs.InProcessSimulator()
+    simulator = mcs.SelfContainedSimulator()
     first = simulator.add(GcasComponent(name="one"))
     second = simulator.add(GcasComponent(name="two"))
     assert first != second

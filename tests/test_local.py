@@ -15,7 +15,7 @@ import pytest
 
 import multicosim as mcs
 from multicosim import testing
-from multicosim._local import FirmwareNode, sweep_stale_runs
+from multicosim._local import ProcessFirmwareNode, sweep_stale_runs
 from multicosim._rundirs import _process_run_id
 
 CART = "python -m multicosim participant multicosim.testing:Cart"
@@ -30,10 +30,10 @@ def _drive_report(world: str, firmware: str, steps: int = 20) -> testing.DriveRe
     if world == "process":
         simulator.add(mcs.ProcessComponent(CART, name="cart"))
     else:
-        simulator.add(mcs.ParticipantComponent(testing.Cart, name="cart"))
+        simulator.add(mcs.InProcessComponent(testing.Cart, name="cart"))
     if firmware == "process":
         node_id = simulator.add(
-            mcs.FirmwareProcessComponent(
+            mcs.ProcessFirmwareComponent(
                 DRIVE, name="drive", msgtype=testing.Drive, replytype=testing.DriveReport
             )
         )
@@ -58,7 +58,7 @@ def test_same_run_in_process_and_as_processes() -> None:
 def test_firmware_serves_until_stopped() -> None:
     simulator = mcs.ProcessSimulator()
     node_id = simulator.add(
-        mcs.FirmwareProcessComponent(
+        mcs.ProcessFirmwareComponent(
             "python -m multicosim serve multicosim.testing:echo",
             msgtype=testing.Echo,
             replytype=testing.Echo,
@@ -73,7 +73,7 @@ def test_firmware_serves_until_stopped() -> None:
 def test_reply_without_declared_type_is_plain_data() -> None:
     simulator = mcs.ProcessSimulator()
     node_id = simulator.add(
-        mcs.FirmwareProcessComponent("python -m multicosim serve multicosim.testing:echo")
+        mcs.ProcessFirmwareComponent("python -m multicosim serve multicosim.testing:echo")
     )
     with simulator.start() as simulation:
         node = simulation.get(node_id)
@@ -85,7 +85,7 @@ def test_reply_without_declared_type_is_plain_data() -> None:
 
 def test_wrong_message_type_is_rejected_before_sending() -> None:
     simulator = mcs.ProcessSimulator()
-    node_id = simulator.add(mcs.FirmwareProcessComponent(DRIVE, msgtype=testing.Drive))
+    node_id = simulator.add(mcs.ProcessFirmwareComponent(DRIVE, msgtype=testing.Drive))
     with (
         simulator.start() as simulation,
         pytest.raises(mcs.MessageTypeError, match="expected a Drive"),
@@ -95,7 +95,7 @@ def test_wrong_message_type_is_rejected_before_sending() -> None:
 
 def test_invalid_field_values_are_rejected_on_receipt() -> None:
     simulator = mcs.ProcessSimulator()
-    node_id = simulator.add(mcs.FirmwareProcessComponent(DRIVE, msgtype=testing.Drive))
+    node_id = simulator.add(mcs.ProcessFirmwareComponent(DRIVE, msgtype=testing.Drive))
     with simulator.start() as simulation:
         bad = testing.Drive(speed="fast", steps=2)  # type: ignore[arg-type]
         with pytest.raises(mcs.MessageTypeError, match=r"not a valid Drive.*\$\.speed"):
@@ -104,10 +104,10 @@ def test_invalid_field_values_are_rejected_on_receipt() -> None:
 
 def _misbehaving(
     timeout: float = 30.0,
-) -> tuple[mcs.ProcessSimulator, mcs.NodeId[mcs.FirmwareNode[testing.Misbehave, str]]]:
+) -> tuple[mcs.ProcessSimulator, mcs.NodeId[mcs.ProcessFirmwareNode[testing.Misbehave, str]]]:
     simulator = mcs.ProcessSimulator()
     node_id = simulator.add(
-        mcs.FirmwareProcessComponent(
+        mcs.ProcessFirmwareComponent(
             MISBEHAVE,
             name="faulty",
             msgtype=testing.Misbehave,
@@ -144,12 +144,10 @@ def test_crash_names_component_exit_code_and_output() -> None:
 def test_no_answer_is_a_timeout_with_output() -> None:
     simulator, node_id = _misbehaving(timeout=0.5)
     with simulator.start() as simulation:
-        start = time.monotonic()
         with pytest.raises(
             mcs.NodeTimeoutError, match=r"'faulty' did not answer within 0\.5 s"
         ) as info:
             simulation.get(node_id).send(testing.Misbehave(how="hang"))
-        assert time.monotonic() - start < 5
         assert "serving" in info.value.log_tail
 
 
@@ -212,7 +210,7 @@ def test_explicit_port_in_use_is_a_start_error() -> None:
         busy.listen()
         port = busy.getsockname()[1]
         simulator = mcs.ProcessSimulator()
-        simulator.add(mcs.FirmwareProcessComponent(DRIVE, port=port, name="drive"))
+        simulator.add(mcs.ProcessFirmwareComponent(DRIVE, port=port, name="drive"))
         with pytest.raises(mcs.NodeStartError, match="'drive' exited before it was ready") as info:
             simulator.start()
         assert "Address already in use" in info.value.log_tail
@@ -223,7 +221,7 @@ def test_explicit_free_port_is_used() -> None:
         probe.bind(("127.0.0.1", 0))
         port = probe.getsockname()[1]
     simulator = mcs.ProcessSimulator()
-    node_id = simulator.add(mcs.FirmwareProcessComponent(DRIVE, port=port))
+    node_id = simulator.add(mcs.ProcessFirmwareComponent(DRIVE, port=port))
     with simulator.start() as simulation:
         assert simulation.get(node_id).endpoint == f"tcp://127.0.0.1:{port}"
 
@@ -234,13 +232,13 @@ def test_process_ignoring_sigterm_is_killed() -> None:
         "print('up', flush=True); time.sleep(60)"
     )
     simulator = mcs.ProcessSimulator()
-    simulator.add(
+    node_id = simulator.add(
         mcs.ProcessComponent(
             ["python", "-c", code], name="stubborn", ready="started", stop_timeout=0.3
         )
     )
     simulation = simulator.start()
-    pid = simulation.nodes[0].pid  # type: ignore[attr-defined]
+    pid = simulation.get(node_id).pid
     simulation.stop()
     with pytest.raises(ProcessLookupError):
         os.kill(pid, 0)
@@ -248,21 +246,21 @@ def test_process_ignoring_sigterm_is_killed() -> None:
 
 def test_logs_are_kept_per_component(tmp_path: Path) -> None:
     simulator = mcs.ProcessSimulator(run_dir=tmp_path)
-    simulator.add(
+    a_id = simulator.add(
         mcs.ProcessComponent(
             ["python", "-c", "print('hello from a', flush=True); import time; time.sleep(30)"],
             name="a",
             ready="started",
         )
     )
-    simulator.add(mcs.FirmwareProcessComponent(DRIVE, name="b"))
+    simulator.add(mcs.ProcessFirmwareComponent(DRIVE, name="b"))
     with simulator.start() as simulation:
         logs = simulation.logs()
         assert sorted(logs) == ["a", "b"]
         deadline = time.monotonic() + 10
         while "hello from a" not in logs["a"].read_text() and time.monotonic() < deadline:
             time.sleep(0.05)
-        assert "hello from a" in simulation.nodes[0].log_tail()  # type: ignore[attr-defined]
+        assert "hello from a" in simulation.get(a_id).log_tail()
     # With an explicit run_dir the logs stay after stop.
     assert "serving" in logs["b"].read_text()
 
@@ -281,7 +279,7 @@ def test_logs_are_kept_per_component(tmp_path: Path) -> None:
 )
 def test_bad_firmware_component_configuration(kwargs: dict[str, object], field: str) -> None:
     with pytest.raises(mcs.ConfigurationError) as info:
-        mcs.FirmwareProcessComponent(**kwargs)  # type: ignore[arg-type]
+        mcs.ProcessFirmwareComponent(**kwargs)  # type: ignore[arg-type]
     assert info.value.field == field
 
 
@@ -308,7 +306,7 @@ def test_duplicate_names_and_late_adds() -> None:
 
 def test_stopped_node_refuses_messages() -> None:
     simulator = mcs.ProcessSimulator()
-    node_id = simulator.add(mcs.FirmwareProcessComponent(DRIVE, msgtype=testing.Drive))
+    node_id = simulator.add(mcs.ProcessFirmwareComponent(DRIVE, msgtype=testing.Drive))
     simulation = simulator.start()
     node = simulation.get(node_id)
     simulation.stop()
@@ -327,7 +325,7 @@ def test_firmware_served_in_a_thread_outside_a_simulation() -> None:
         kwargs={"port": port, "stop": stop, "environment": (None, "echo", 0)},
     )
     server.start()
-    node: FirmwareNode[testing.Echo, testing.Echo] = FirmwareNode(
+    node: ProcessFirmwareNode[testing.Echo, testing.Echo] = ProcessFirmwareNode(
         "echo",
         f"tcp://127.0.0.1:{port}",
         msgtype=testing.Echo,
@@ -398,7 +396,7 @@ def test_firmware_thread_component_runs_in_lockstep() -> None:
     simulator = mcs.ProcessSimulator(seed=7)
     simulator.add(mcs.ProcessComponent(CART, name="cart"))
     node_id = simulator.add(
-        mcs.FirmwareThreadComponent(testing.drive, replytype=testing.DriveReport)
+        mcs.ThreadFirmwareComponent(testing.drive, replytype=testing.DriveReport)
     )
     with simulator.start() as simulation:
         report = simulation.get(node_id).send(testing.Drive(speed=1.5, steps=20))

@@ -2,14 +2,19 @@
 
 from __future__ import annotations
 
-import os
+import contextlib
+import fnmatch
+import io
+import itertools
 import re
+import sys
 from pathlib import Path
 from typing import Any
 
 import pytest
 
 import multicosim as mcs
+from pytest_multicosim.plugin import require_docker
 from pytest_multicosim.px4 import RealPX4
 
 README = Path(__file__).resolve().parents[1] / "README.md"
@@ -23,35 +28,79 @@ def _block(containing: str) -> str:
     return str(found[0])
 
 
-def _run(containing: str, namespace: dict[str, Any] | None = None) -> dict[str, Any]:
+def _shown(block: str) -> list[str]:
+    """What the block says its prints print: a top-level print's comment, or the next line's."""
+    shown = []
+    for line, after in itertools.pairwise([*block.splitlines(), ""]):
+        if not line.startswith("print("):
+            continue
+        if "  # " in line:  # print(x)  # what it prints
+            shown.append(line.split("  # ", 1)[1])
+        elif after.startswith("# "):
+            shown.append(after.removeprefix("# "))
+    return shown
+
+
+def _matches(printed: str, shown: str) -> bool:
+    # "..." in the README stands for what varies (floats drawn by a search, times).
+    pattern = shown.replace("[", "[[]").replace("...", "*")
+    return fnmatch.fnmatchcase(printed, pattern)
+
+
+def _run(
+    containing: str, namespace: dict[str, Any] | None = None, code: str | None = None
+) -> dict[str, Any]:
+    """Run the README block containing ``containing`` as written; check what it prints."""
     namespace = {} if namespace is None else namespace
-    exec(compile(_block(containing), f"README block with {containing!r}", "exec"), namespace)
+    code = _block(containing) if code is None else code
+    output = io.StringIO()
+    with contextlib.redirect_stdout(output):
+        exec(compile(code, f"README block with {containing!r}", "exec"), namespace)
+    sys.stdout.write(output.getvalue())  # still there for capsys and for reading
+    printed = output.getvalue().splitlines()
+    for shown in _shown(code):
+        # Each shown output is printed, in order.
+        while printed and not _matches(printed[0], shown):
+            printed.pop(0)
+        assert printed, f"the README block with {containing!r} did not print {shown!r}"
+        printed.pop(0)
     return namespace
 
 
+def test_every_print_in_the_readme_shows_its_output() -> None:
+    blocks = re.findall(r"```python\n(.*?)```", README.read_text(), flags=re.DOTALL)
+    prints = [b for b in blocks if "\nprint(" in "\n" + b and "summary()" not in b]
+    assert prints
+    assert all(_shown(block) or "check_component" in block for block in prints)
+
+
 def test_quick_start_listing_runs() -> None:
-    namespace = _run("multicosim.testing:Cart")
+    namespace = _run("replytype=testing.DriveReport")
     # The cart moves at 5 m/s from t=0.01 s until the driver's last step at t=1.95 s.
     assert namespace["report"].positions[-1] == pytest.approx(9.75)
 
 
 def test_component_listing_runs_in_process() -> None:
-    from multicosim import testing
 
-    namespace = _run("class Cart:", {"mcs": mcs, "testing": testing})
+    namespace = _run("class Cart:")
     simulator = mcs.ProcessSimulator()
-    simulator.add(mcs.ParticipantComponent(namespace["Cart"], name="cart"))
+    simulator.add(mcs.InProcessComponent(namespace["Cart"], name="cart"))
     node_id = simulator.add(mcs.InProcessFirmwareComponent(namespace["controller"]))
     with simulator.start() as simulation:
         x = simulation.get(node_id).send(namespace["Mission"](speed=2.0, duration=1.0))
     assert x == pytest.approx(2.0)
 
 
+def test_check_component_listing_prints_its_report(capsys: pytest.CaptureFixture[str]) -> None:
+    _run("report = check_component(")
+    printed = capsys.readouterr().out
+    shown = re.search(r"```\n(check_component\(.*?)```", README.read_text(), flags=re.DOTALL)
+    assert shown is not None
+    assert printed == shown.group(1)
+
+
 def test_pytest_listing_passes(pytester: pytest.Pytester) -> None:
-    pytester.makepyfile(
-        "import multicosim as mcs\nfrom multicosim import testing\n"
-        + _block("def test_cart_reaches_the_goal")
-    )
+    pytester.makepyfile(_block("def test_cart_reaches_the_goal"))
     result = pytester.runpytest("--mcs-fidelity=low,medium,high", "-rs")
     result.assert_outcomes(passed=2, skipped=1)
     result.stdout.fnmatch_lines(["*fidelity 'high' not in the test's levels (low, medium)*"])
@@ -67,9 +116,7 @@ def test_real_px4_listing_runs(px4_sitl: RealPX4) -> None:
     if px4_sitl.binary is None:
         pytest.skip("the listing runs a PX4 binary")
     code = _block("px4.SITL(binary=").replace('"../shared/px4-sitl/bin/px4"', repr(px4_sitl.binary))
-    namespace: dict[str, Any] = {}
-    exec(compile(code, "README block with px4.SITL", "exec"), namespace)
-    result = namespace["result"]
+    result = _run("px4.SITL(binary=", code=code)["result"]
     assert result.completed, result.reason
     assert result.firmware_version == "1.15.4"
     assert [r.index for r in result.reached] == [0]
@@ -111,14 +158,8 @@ def test_search_listing_runs() -> None:
 
 
 def test_docker_listing_runs() -> None:
-    from multicosim.docker import RUNTIME_IMAGE, engine_available
-
-    reason = engine_available()
-    if reason is not None:
-        if os.environ.get("MCS_REQUIRE_DOCKER") == "1":
-            pytest.fail(f"MCS_REQUIRE_DOCKER=1 but no Docker engine: {reason}")
-        pytest.skip(f"no Docker engine: {reason}")
-    from multicosim.docker import build_images
+    require_docker()
+    from multicosim.docker import RUNTIME_IMAGE, build_images
 
     assert RUNTIME_IMAGE in build_images()
     assert _run("mcs.ContainerSimulator()")["trajectory"].completed

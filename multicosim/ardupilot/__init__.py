@@ -25,9 +25,9 @@ from ..geo import Home
 from ..mujoco._config import WorldConfig
 from ..px4._config import (
     Configuration,
+    FlightSample,
     Geofence,
     MissionResult,
-    Sample,
     Waypoint,
     WaypointReached,
 )
@@ -57,11 +57,11 @@ __all__ = [
     "Configuration",
     "Copter",
     "Fidelity",
+    "FlightSample",
     "Geofence",
     "Home",
     "MissionResult",
     "Rover",
-    "Sample",
     "Waypoint",
     "WaypointReached",
     "WorldConfig",

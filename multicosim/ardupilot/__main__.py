@@ -10,7 +10,6 @@ link go to ``--sim-host`` (the simulation network's gateway, where the bridge li
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 
@@ -19,14 +18,20 @@ __all__ = ["main"]
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point (``multicosim ardupilot`` delegates here)."""
-    parser = argparse.ArgumentParser(
-        prog="multicosim ardupilot", description=__doc__.splitlines()[0]
+    from ..__main__ import command_parser, subcommands
+
+    parser = command_parser(
+        "multicosim ardupilot",
+        "ArduPilot tools: 'launch' is the ArduPilot image's entry point, which starts "
+        "ArduPilot on the simulation's physics bridge.",
     )
-    sub = parser.add_subparsers(dest="command", required=True)
+    sub = subcommands(parser, "command")
     launch = sub.add_parser(
         "launch", help="(in the ArduPilot image) write ArduPilot's parameters and start it"
     )
-    launch.add_argument("--vehicle", choices=("copter", "rover"), required=True)
+    launch.add_argument(
+        "--vehicle", choices=("copter", "rover"), required=True, help="which ArduPilot to start"
+    )
     launch.add_argument("--sim-host", required=True, help="address of the physics bridge")
     launch.add_argument("--mavlink-port", type=int, required=True, help="the bridge's TCP port")
     launch.add_argument("--home", required=True, help="LAT,LON,ALT (degrees, m AMSL)")

@@ -31,7 +31,7 @@ import msgspec
 
 from .._errors import ConfigurationError, MulticosimError
 from .._interfaces import Node
-from .._local import LocalEnvironment, ParticipantComponent
+from .._local import InProcessComponent, LocalEnvironment
 from .._runtime import StepContext, Subscription
 from ..attacks._models import Additive, Delay, Dropout, Model, Offsets, check_models
 from ..geo import Home, LocalProjection
@@ -207,4 +207,4 @@ class FaultsComponent:
     def start(self, environment: LocalEnvironment) -> Node:
         """Start it in this process."""
         config = self.config
-        return ParticipantComponent(lambda: SimulatedFaults(config), self.name).start(environment)
+        return InProcessComponent(lambda: SimulatedFaults(config), self.name).start(environment)

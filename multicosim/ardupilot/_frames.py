@@ -22,6 +22,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from .._errors import ConfigurationError
+from ..geo import GRAVITY
 from ..px4._airframe import Airframe
 
 __all__ = [
@@ -43,7 +44,6 @@ ArduPilot's scheduler runs one loop per 2.5 ms; a slower physics step makes ever
 (its pre-arm check refuses "Main loop slow"), so one exchange per loop is the cheapest rate.
 """
 PWM_MIN, PWM_TRIM, PWM_MAX = 1000, 1500, 2000
-GRAVITY = 9.80665
 # ArduCopter's motor mixer output range (MOT_SPIN_MIN and MOT_SPIN_MAX defaults).
 SPIN_MIN, SPIN_MAX = 0.15, 0.95
 

@@ -3,7 +3,7 @@
 Where ArduPilot comes from is a :class:`SITL`: a directory with ``bin/arducopter``,
 ``bin/ardurover`` and ``params/`` (ArduPilot's default parameter files, as its
 ``Tools/autotest/default_params``), run as a local process, or an image
-(``python -m multicosim.docker build --ardupilot-dir DIR``) run as a container on the
+(``multicosim images build --ardupilot-dir DIR``) run as a container on the
 simulation's network. Each ArduPilot gets:
 
 * its own instance number N (``-I N``), claimed by binding its physics port 9002 + 10 N on
@@ -96,7 +96,7 @@ class SITL:
 
     ``directory`` holds ``bin/arducopter``, ``bin/ardurover`` (ArduPilot's SITL builds) and
     ``params/copter.parm``, ``params/rover.parm`` (its default parameters). ``image`` is an
-    ArduPilot image from ``python -m multicosim.docker build --ardupilot-dir DIR``, for
+    ArduPilot image from ``multicosim images build --ardupilot-dir DIR``, for
     ``backend="docker"``; with only a directory, the docker backend builds that image.
     ``params`` are set at boot. ``start_timeout`` bounds (wall seconds) the start until
     ArduPilot's first servo packet; ``lockstep_timeout`` each physics step once it runs.
@@ -422,7 +422,7 @@ def start_ardupilot(
     Returns once ArduPilot has sent its first servo packet; it then waits, in lockstep, for
     the simulation's clock. Every part started is stopped again if a later one fails.
     """
-    from .._local import ParticipantComponent, ProcessComponent
+    from .._local import InProcessComponent, ProcessComponent
 
     group = ArduPilotNodes(name)
     container = _is_container_environment(environment)
@@ -443,7 +443,7 @@ def start_ardupilot(
             listener.close()
             physics.close()
             raise
-        bridge_node = ParticipantComponent(
+        bridge_node = InProcessComponent(
             lambda: JsonBridge(
                 name=name,
                 period=period,

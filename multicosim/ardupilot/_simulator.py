@@ -21,20 +21,22 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal, cast
 
 from .._errors import ConfigurationError, NodeStartError
+from .._fidelity import BACKENDS, Backend
 from .._interfaces import Component, Node, NodeId
 from .._local import (
+    InProcessComponent,
     InProcessFirmwareComponent,
     LocalEnvironment,
-    ParticipantComponent,
     ProcessSimulation,
     ProcessSimulator,
     ScenarioSimulation,
+    required_images,
 )
 from ..geo import Home
 from ..mujoco._config import WorldConfig
 from ..px4._config import Configuration, Geofence
 from ..px4._gcs import GcsSpec, Procedure, ground_station
-from ..px4._simulator import MissionNode, needs_images
+from ..px4._simulator import MissionNode
 from ..rover._messages import MAX_SPEED
 from ._bridge import DOWNLINK, SERVO_TOPIC, TRUTH_TOPIC, UPLINK
 from ._frames import FRAME_RATE, copter_params, rover_params
@@ -67,9 +69,7 @@ __all__ = [
 ]
 
 Fidelity = Literal["medium", "high"]
-Backend = Literal["process", "docker"]
 FIDELITIES: tuple[Fidelity, ...] = ("medium", "high")
-BACKENDS: tuple[Backend, ...] = ("process", "docker")
 FRAME_PERIOD = 1.0 / FRAME_RATE
 BOOT_STEP = 0.05  # s of simulated time between looks at ArduPilot's MAVLink link at start
 BOOT_LIMIT = 10.0  # s of simulated time ArduPilot gets to start speaking MAVLink
@@ -133,7 +133,7 @@ class WorldComponent:
             plugin = ArduCopterVehicle() if vehicle == "copter" else ArduRoverVehicle()
             return World(world, plugin)
 
-        return ParticipantComponent(factory, self.name).start(environment)
+        return InProcessComponent(factory, self.name).start(environment)
 
 
 class ArduPilotNode(MissionNode):
@@ -387,7 +387,7 @@ class _ArduPilotSimulator:
 
     def add(self, component: Component[ContainerEnvironment, Any]) -> NodeId[Any]:
         """Add another component (an injector, a monitor), stepped before ArduPilot's bridge."""
-        if self.backend != "docker" and needs_images(component):
+        if self.backend != "docker" and required_images(component):
             raise ConfigurationError(
                 "component",
                 component,

@@ -24,7 +24,7 @@ import msgspec
 from .._clock import NS
 from .._errors import ConfigurationError
 from .._interfaces import Node
-from .._local import LocalEnvironment, ParticipantComponent, ProcessComponent, config_json
+from .._local import InProcessComponent, LocalEnvironment, ProcessComponent, participant_command
 from ._models import Additive, Delay, Dropout, Model, Offsets, check_models
 from ._sensors import Sensor, Vehicle, Wire, canonical, sensor
 
@@ -194,7 +194,7 @@ class InjectorComponent:
     @property
     def command(self) -> list[str]:
         """The injector program's command line (after ``python -m``)."""
-        return ["multicosim", "participant", PROGRAM, "--config", config_json(self.config)]
+        return participant_command(PROGRAM, self.config)
 
     def container(self, image: str | None = None) -> Any:
         """The injector as a ``multicosim.docker.ContainerComponent`` of the same program.
@@ -213,4 +213,4 @@ class InjectorComponent:
                 environment
             )
         config = self.config
-        return ParticipantComponent(lambda: SensorInjector(config), self.name).start(environment)
+        return InProcessComponent(lambda: SensorInjector(config), self.name).start(environment)

@@ -26,22 +26,15 @@ from ._sensors import Vehicle, canonical
 __all__ = ["SimulatesFaults", "inject", "vehicle_of"]
 
 
-def _unwrap(simulator: object) -> object:
-    # The pytest fixtures hand out a wrapper that tracks the simulation; it keeps the
-    # scenario's simulator as ``_inner``.
-    return getattr(simulator, "_inner", simulator)
-
-
 def vehicle_of(simulator: object) -> Vehicle:
     """Which scenario ``simulator`` is (``"rover"`` or ``"px4"``); ConfigurationError if neither."""
     from ..rover import Rover
 
-    inner = _unwrap(simulator)
-    if isinstance(inner, Rover):
+    if isinstance(simulator, Rover):
         return "rover"
     from ..px4 import PX4
 
-    if isinstance(inner, PX4):
+    if isinstance(simulator, PX4):
         return "px4"
     raise ConfigurationError(
         "simulator", simulator, "a multicosim.rover.Rover or multicosim.px4.PX4 (not started)"
@@ -78,7 +71,7 @@ def inject(
     message, or a sensor that already has an injector. A scenario whose firmware simulates
     its sensors' faults itself (ArduPilot) gets the models mapped onto those instead.
     """
-    inner: Any = _unwrap(simulator)
+    inner: Any = simulator
     faults = getattr(inner, "inject_faults", None)
     if callable(faults):
         return faults(sensor, models, name=name)
@@ -129,12 +122,17 @@ def inject(
             wire=inner.wire,
         )
     component = InjectorComponent(config, name=name, process=not in_process)
-    # Validate everything before the simulator changes: remap last.
+    # Validate everything before the simulator changes: move the topic last.
     added = component.container() if inner.backend == "docker" else component
     try:
         inner.add(added)
     except MulticosimError as exc:
         exc.add_note("add injectors before start(): use the *_simulator fixture, not *_simulation")
         raise
-    inner.remap(sensor, source if vehicle == "rover" else target)
+    # The rover's world publishes the sensor on the injector's source; PX4's autopilot reads
+    # it from the injector's target.
+    if vehicle == "rover":
+        inner.publish_sensor_on(sensor, source)
+    else:
+        inner.read_sensor_from(sensor, target)
     return component

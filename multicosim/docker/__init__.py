@@ -17,11 +17,12 @@ _LAZY = {
     "ContainerFirmwareNode": "._components",
     "ContainerLimits": "._components",
     "ContainerNode": "._components",
-    "FirmwareComponent": "._components",
+    "ContainerFirmwareComponent": "._components",
+    "FirmwareComponent": "._components",  # the paper's name
     "ContainerSimulation": "._simulator",
     "ContainerSimulator": "._simulator",
-    "EngineUnavailableError": "._engine",
-    "ImageMissingError": "._engine",
+    "EngineUnavailableError": ".._errors",
+    "ImageMissingError": ".._errors",
     "BASE_IMAGE": "._images",
     "RUNTIME_IMAGE": "._images",
     "PX4_IMAGE": "._images",
@@ -33,7 +34,7 @@ _LAZY = {
     "engine_available": "._sweep",
     "sweep": "._sweep",
 }
-_RENAMED = {"build_images": "build"}
+_RENAMED = {"build_images": "build", "FirmwareComponent": "ContainerFirmwareComponent"}
 
 __all__ = [
     "ARDUPILOT_IMAGE",
@@ -44,6 +45,7 @@ __all__ = [
     "AttachedNode",
     "ContainerComponent",
     "ContainerEnvironment",
+    "ContainerFirmwareComponent",
     "ContainerFirmwareNode",
     "ContainerLimits",
     "ContainerNode",
@@ -61,16 +63,17 @@ __all__ = [
 ]
 
 if TYPE_CHECKING:
+    from .._errors import EngineUnavailableError as EngineUnavailableError
+    from .._errors import ImageMissingError as ImageMissingError
     from ._components import AttachedComponent as AttachedComponent
     from ._components import AttachedNode as AttachedNode
     from ._components import ContainerComponent as ContainerComponent
     from ._components import ContainerEnvironment as ContainerEnvironment
+    from ._components import ContainerFirmwareComponent as ContainerFirmwareComponent
+    from ._components import ContainerFirmwareComponent as FirmwareComponent
     from ._components import ContainerFirmwareNode as ContainerFirmwareNode
     from ._components import ContainerLimits as ContainerLimits
     from ._components import ContainerNode as ContainerNode
-    from ._components import FirmwareComponent as FirmwareComponent
-    from ._engine import EngineUnavailableError as EngineUnavailableError
-    from ._engine import ImageMissingError as ImageMissingError
     from ._images import ARDUPILOT_IMAGE as ARDUPILOT_IMAGE
     from ._images import BASE_IMAGE as BASE_IMAGE
     from ._images import PX4_IMAGE as PX4_IMAGE

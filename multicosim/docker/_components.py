@@ -1,5 +1,5 @@
 """The paper's container classes: ContainerNode, ContainerComponent, AttachedComponent,
-FirmwareComponent, and the environment a ContainerSimulator gives them.
+ContainerFirmwareComponent, and the environment a ContainerSimulator gives them.
 
 Every container runs with an init process (so it stops at once on SIGTERM), carries the run's
 labels (so a sweep can remove it if its host dies) and is removed when its node stops. It runs
@@ -25,9 +25,16 @@ from typing import Any, Generic, Literal, Protocol, TypeVar
 from .. import _wire as wire
 from .._clock import Scheduler
 from .._environment import LocalEnvironment
-from .._errors import ConfigurationError, NodeCrashedError, NodeStartError, NodeTimeoutError
-from .._firmware import FirmwareNode, check_types
+from .._errors import (
+    ConfigurationError,
+    NodeCrashedError,
+    NodeStartError,
+    NodeTimeoutError,
+    translate,
+)
+from .._firmware import ProcessFirmwareNode, check_types
 from .._interfaces import Node
+from .._messages import MsgT, ReplyT
 from .._processes import split_command
 from .._rundirs import start_time
 from .._waits import (
@@ -43,16 +50,14 @@ __all__ = [
     "AttachedNode",
     "ContainerComponent",
     "ContainerEnvironment",
+    "ContainerFirmwareComponent",
     "ContainerFirmwareNode",
     "ContainerLimits",
     "ContainerNode",
-    "FirmwareComponent",
 ]
 
 log = logging.getLogger(__name__)
 
-MsgT = TypeVar("MsgT")
-ReplyT = TypeVar("ReplyT")
 HostT = TypeVar("HostT", bound=Node)
 HostT_co = TypeVar("HostT_co", bound=Node, covariant=True)
 
@@ -395,7 +400,7 @@ def _launch(
             detach=True,
         )
     except APIError as exc:
-        raise NodeStartError(name, f"could not be created: {exc.explanation or exc}") from exc
+        raise translate(exc, name=name) or exc from exc
     container = environment.client.containers.prepare_model({"Id": created["Id"], "Name": cname})
     node = ContainerNode(
         container,
@@ -507,7 +512,7 @@ class ContainerComponent:
         return node
 
 
-class ContainerFirmwareNode(FirmwareNode[MsgT, ReplyT]):
+class ContainerFirmwareNode(ProcessFirmwareNode[MsgT, ReplyT]):
     """A firmware in a container: a CommunicationNode over ZeroMQ through a loopback port.
 
     ``container`` is its ContainerNode (logs, exit code); ``host_port`` the published port.
@@ -540,7 +545,7 @@ class ContainerFirmwareNode(FirmwareNode[MsgT, ReplyT]):
 
 
 @dataclasses.dataclass(frozen=True)
-class FirmwareComponent(Generic[MsgT, ReplyT]):
+class ContainerFirmwareComponent(Generic[MsgT, ReplyT]):
     """A firmware in a container, reached as a CommunicationNode (the paper's class).
 
     ``{port}`` in ``command`` becomes ``port``, the container port the program serves on; it
@@ -667,9 +672,9 @@ def _container_of(node: Node) -> ContainerNode:
 class AttachedComponent(Generic[HostT]):
     """Containers sharing one network stack (the paper's AttachedComponent).
 
-    Only ``host`` (a ContainerComponent or FirmwareComponent) joins the simulation's network
-    and publishes ports; every ``attached`` container reuses its network stack, so they all
-    talk to each other over localhost.
+    Only ``host`` (a ContainerComponent or ContainerFirmwareComponent) joins the simulation's
+    network and publishes ports; every ``attached`` container reuses its network stack, so
+    they all talk to each other over localhost.
     """
 
     host: _HostComponent[HostT]
@@ -678,8 +683,10 @@ class AttachedComponent(Generic[HostT]):
 
     def __post_init__(self) -> None:
         host: object = self.host  # checked at run time: the annotation is not enforced
-        if not isinstance(host, ContainerComponent | FirmwareComponent):
-            raise ConfigurationError("host", self.host, "a ContainerComponent or FirmwareComponent")
+        if not isinstance(host, ContainerComponent | ContainerFirmwareComponent):
+            raise ConfigurationError(
+                "host", self.host, "a ContainerComponent or ContainerFirmwareComponent"
+            )
         if isinstance(self.attached, ContainerComponent) or not all(
             isinstance(c, ContainerComponent) for c in self.attached
         ):

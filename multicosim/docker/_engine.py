@@ -8,15 +8,17 @@ import socket
 import uuid
 from typing import Any
 
-from .._errors import DependencyMissingError, MulticosimError, NodeStartError
+from .._deps import require
+from .._errors import (
+    EngineUnavailableError,
+    ImageMissingError,
+)
 from .._rundirs import boot_id, start_time
 
-try:
-    import docker
-    import docker.errors
-    from docker.errors import APIError, ImageNotFound, NotFound
-except ImportError as exc:  # pragma: no cover - exercised only without the extra
-    raise DependencyMissingError("docker", "docker") from exc
+require("docker", "docker")
+import docker  # noqa: E402 - after the check, which names the extra
+import docker.errors  # noqa: E402
+from docker.errors import APIError, ImageNotFound, NotFound  # noqa: E402
 
 __all__ = [
     "LABEL_COMPONENT",
@@ -24,8 +26,6 @@ __all__ = [
     "LABEL_RUN",
     "LABEL_SESSION",
     "APIError",
-    "EngineUnavailableError",
-    "ImageMissingError",
     "ImageNotFound",
     "NotFound",
     "client",
@@ -51,15 +51,8 @@ _START_HINT = (
 )
 
 
-class EngineUnavailableError(MulticosimError):
-    """The Docker engine cannot be reached (not installed, not running or no permission)."""
-
-
-class ImageMissingError(NodeStartError):
-    """A component's image is not present locally (multicosim never pulls images)."""
-
-
-def _engine_url() -> str:
+def engine_url() -> str:
+    """Where the Docker engine is looked for: ``DOCKER_HOST``, read now, or the usual socket."""
     return os.environ.get("DOCKER_HOST", "unix:///var/run/docker.sock")
 
 
@@ -100,7 +93,7 @@ def _client_for(pid: int, url: str) -> Any:
 
 def client() -> Any:
     """This process's Docker client for the engine named by ``DOCKER_HOST`` (read now)."""
-    return _client_for(os.getpid(), _engine_url())
+    return _client_for(os.getpid(), engine_url())
 
 
 def engine_available() -> str | None:
@@ -112,7 +105,7 @@ def engine_available() -> str | None:
         return str(exc)
     except OSError as exc:
         _client_for.cache_clear()
-        return f"the Docker engine is not reachable at {_engine_url()}: {exc}"
+        return f"the Docker engine is not reachable at {engine_url()}: {exc}"
     return None
 
 
@@ -154,7 +147,7 @@ def labels(run_id: str) -> dict[str, str]:
 def build_hint(image: str) -> str:
     """How to get ``image`` onto this machine."""
     return (
-        f"build it locally: `python -m multicosim.docker build` builds multicosim's images "
+        f"build it locally: `multicosim images build` builds multicosim's images "
         f"(or `docker build -t {image} ...` for your own); multicosim never pulls images"
     )
 

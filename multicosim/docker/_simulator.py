@@ -10,7 +10,7 @@ from .._clock import Scheduler
 from .._errors import MulticosimError
 from .._interfaces import Node
 from .._rundirs import remove_tree
-from .._simulators import LocalSimulatorBase, ProcessSimulation
+from .._simulators import LocalSimulatorBase, ProcessSimulation, required_images
 from ._components import ContainerEnvironment, ContainerNode
 from ._engine import LABEL_RUN, APIError, NotFound, client, labels, require_image
 
@@ -62,7 +62,7 @@ class ContainerSimulator(LocalSimulatorBase[ContainerEnvironment]):
 
     Containers join the lockstep through a coordinator listening on the network's gateway
     address; ``seed`` and ``realtime`` mean what they mean for ProcessSimulator. In-process
-    components (ParticipantComponent, InProcessFirmwareComponent) may be mixed in.
+    components (InProcessComponent, InProcessFirmwareComponent) may be mixed in.
     ``run_dir`` keeps each container's output there (NAME.log) after the run.
     """
 
@@ -72,8 +72,7 @@ class ContainerSimulator(LocalSimulatorBase[ContainerEnvironment]):
         api = docker_client.api
         # Check every image first: a missing one fails before anything is created.
         for node_id, component in self._components:
-            images = getattr(component, "required_images", None)
-            for image in images() if callable(images) else ():
+            for image in required_images(component):
                 require_image(api, image, node_id.name)
 
         run_id, run_dir = self._new_run()
@@ -83,7 +82,7 @@ class ContainerSimulator(LocalSimulatorBase[ContainerEnvironment]):
             remove_tree(run_dir)
             raise MulticosimError(
                 f"could not create the simulation's network: {exc.explanation or exc}; if "
-                "Docker's address pools are exhausted, `python -m multicosim.docker sweep` "
+                "Docker's address pools are exhausted, `multicosim sweep` "
                 "removes networks left by killed runs (`docker network prune` removes all)"
             ) from exc
         try:

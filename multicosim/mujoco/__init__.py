@@ -47,7 +47,7 @@ __all__ = [
 _LAZY = {
     "MODELS": "._world",
     "Physics": "._world",
-    "PhysicsDivergedError": "._world",
+    "PhysicsDivergedError": ".._errors",
     "Vehicle": "._world",
     "World": "._world",
     "RoverVehicle": "._rover",
@@ -55,8 +55,9 @@ _LAZY = {
 }
 
 if TYPE_CHECKING:
+    from .._errors import PhysicsDivergedError
     from ._rover import RoverVehicle, rover_world
-    from ._world import MODELS, Physics, PhysicsDivergedError, Vehicle, World
+    from ._world import MODELS, Physics, Vehicle, World
 
 
 def __getattr__(name: str) -> Any:

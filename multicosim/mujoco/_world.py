@@ -15,8 +15,9 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
-from .._errors import DependencyMissingError, MulticosimError
-from ..geo import local_to_geodetic
+from .._deps import require
+from .._errors import MulticosimError, PhysicsDivergedError
+from ..geo import GRAVITY, local_to_geodetic
 from ._config import WorldConfig, check_sensor_topics
 
 if TYPE_CHECKING:
@@ -25,12 +26,10 @@ if TYPE_CHECKING:
 
     from .._runtime import StepContext
 
-try:
-    import mujoco
-except ImportError as exc:  # pragma: no cover - depends on the installation
-    raise DependencyMissingError("mujoco", "mujoco") from exc
+require("mujoco", "mujoco")
+import mujoco  # noqa: E402 - after the check, which names the extra
 
-__all__ = ["MODELS", "Physics", "PhysicsDivergedError", "Vehicle", "World"]
+__all__ = ["MODELS", "Physics", "Vehicle", "World"]
 
 log = logging.getLogger(__name__)
 
@@ -84,6 +83,7 @@ class Physics:
         opt.solver = _SOLVERS[config.solver]
         opt.iterations = config.iterations
         opt.magnetic[:] = config.magnetic_field
+        opt.gravity[:] = (0.0, 0.0, -GRAVITY)
         _route_warnings()
         self.data = mujoco.MjData(model)
         self._steps = 0
@@ -156,10 +156,6 @@ def load_model(path: str | os.PathLike[str]) -> Any:
         return mujoco.MjModel.from_xml_path(os.fspath(path))
     except ValueError as exc:
         raise MulticosimError(f"could not load the MJCF model {path}: {exc}") from exc
-
-
-class PhysicsDivergedError(MulticosimError):
-    """MuJoCo's integration diverged (NaN or huge accelerations) under this configuration."""
 
 
 class Vehicle(Protocol):

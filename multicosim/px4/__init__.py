@@ -25,11 +25,11 @@ from typing import TYPE_CHECKING, Any
 
 from ._config import (
     Configuration,
+    FlightSample,
     Geofence,
     Home,
     MissionResult,
     MuJoCo,
-    Sample,
     Topics,
     Waypoint,
     WaypointReached,
@@ -60,6 +60,7 @@ __all__ = [
     "Backend",
     "Configuration",
     "Fidelity",
+    "FlightSample",
     "Gazebo",
     "Geofence",
     "Home",
@@ -68,7 +69,6 @@ __all__ = [
     "PX4Component",
     "PX4Node",
     "PX4Simulation",
-    "Sample",
     "Topics",
     "Waypoint",
     "WaypointReached",
@@ -91,7 +91,15 @@ if TYPE_CHECKING:
     )
 
 
+# Former names, kept as deprecated aliases: old name -> new name.
+_DEPRECATED = {"Sample": "FlightSample"}
+
+
 def __getattr__(name: str) -> Any:
+    if name in _DEPRECATED:
+        from .._deps import renamed
+
+        return globals()[renamed(__name__, name, _DEPRECATED)]
     module = _LAZY.get(name)
     if module is None:
         raise AttributeError(f"module 'multicosim.px4' has no attribute {name!r}")

@@ -24,10 +24,26 @@ __all__ = ["main"]
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point (``multicosim px4 sitl`` delegates here)."""
-    parser = argparse.ArgumentParser(prog="multicosim px4", description=__doc__.splitlines()[0])
-    sub = parser.add_subparsers(dest="command", required=True)
-    p = sub.add_parser("sitl", help="run world + autopilot in real time on PX4's UDP ports")
-    p.add_argument("--fidelity", choices=("low", "medium"), default="medium")
+    from ..__main__ import command_parser, run_command, subcommands
+
+    parser = command_parser(
+        "multicosim px4",
+        "A PX4 SITL on multicosim's MuJoCo world, on PX4's usual UDP ports: QGroundControl "
+        "and MAVSDK connect and fly it as they would PX4 SITL with Gazebo.",
+    )
+    sub = subcommands(parser, "command")
+    p = sub.add_parser(
+        "sitl",
+        help="run world + autopilot in real time on PX4's UDP ports",
+        description="Run the world and an autopilot (the built-in one, or real PX4) in real "
+        "time; ground stations connect on the ports it prints. Ctrl-C stops it.",
+    )
+    p.add_argument(
+        "--fidelity",
+        choices=("low", "medium"),
+        default="medium",
+        help="low: a point mass; medium: MuJoCo physics",
+    )
     p.add_argument(
         "--speed",
         type=float,
@@ -44,8 +60,13 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument(
         "--api-port", type=int, default=14540, help="API (MAVSDK) port to send to (0: no API link)"
     )
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--duration", type=float, default=None, help="stop after this many sim s")
+    p.add_argument("--seed", type=int, default=0, help="fixes every random source")
+    p.add_argument(
+        "--duration",
+        type=float,
+        default=None,
+        help="stop after this many simulated seconds (default: run until Ctrl-C)",
+    )
     p.add_argument(
         "--px4-binary",
         default=None,
@@ -57,11 +78,11 @@ def main(argv: list[str] | None = None) -> int:
         default=None,
         help="fly real PX4 in a container of this image (multicosim images build --px4-dir)",
     )
-    p.add_argument("-v", "--verbose", action="store_true")
+    p.add_argument("-v", "--verbose", action="store_true", help="log debug messages")
     launch = sub.add_parser(
         "launch", help="(in the PX4 image) prepare PX4's working directory and start PX4"
     )
-    launch.add_argument("--instance", type=int, default=0)
+    launch.add_argument("--instance", type=int, default=0, help="PX4's instance number")
     launch.add_argument("--sim-host", required=True, help="address of the simulator bridge")
     launch.add_argument(
         "--link",
@@ -69,7 +90,7 @@ def main(argv: list[str] | None = None) -> int:
         default=None,
         help="a MAVLink link LOCAL_PORT:HOST:PORT:MODE (repeat; none: PX4's own links)",
     )
-    launch.add_argument("--model", default="none_iris")
+    launch.add_argument("--model", default="none_iris", help="PX4's airframe")
     launch.add_argument("--params", default="{}", help="PX4 parameters as a JSON object")
     args = parser.parse_args(argv)
     if args.command == "launch":
@@ -85,7 +106,7 @@ def main(argv: list[str] | None = None) -> int:
     # SIGTERM ends the run as cleanly as Ctrl-C does.
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
     if args.px4_binary or args.px4_image:
-        return _real(parser, args, stop)
+        return run_command("multicosim px4 sitl", lambda: _real(parser, args, stop))
     from ._sitl import Link, run_sitl
 
     links = []
@@ -105,17 +126,20 @@ def main(argv: list[str] | None = None) -> int:
             where.append(f"MAVSDK on udpin://0.0.0.0:{args.api_port}")
         print(f"multicosim px4 sitl ({args.fidelity}) ready: {', '.join(where)}", flush=True)
 
-    with contextlib.suppress(KeyboardInterrupt):
-        run_sitl(
-            fidelity=args.fidelity,
-            speed=args.speed,
-            links=links,
-            seed=args.seed,
-            duration=args.duration,
-            stop=stop,
-            on_ready=ready,
-        )
-    return 0
+    def run() -> int:
+        with contextlib.suppress(KeyboardInterrupt):
+            run_sitl(
+                fidelity=args.fidelity,
+                speed=args.speed,
+                links=links,
+                seed=args.seed,
+                duration=args.duration,
+                stop=stop,
+                on_ready=ready,
+            )
+        return 0
+
+    return run_command("multicosim px4 sitl", run, verbose=args.verbose)
 
 
 def _real(parser: argparse.ArgumentParser, args: argparse.Namespace, stop: threading.Event) -> int:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from ._control import GRAVITY
+from ..geo import GRAVITY
 from ._mav import Mode
 from ._state import (
     CMD_LAND,

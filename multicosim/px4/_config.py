@@ -18,11 +18,11 @@ from ..mujoco._config import WorldConfig, check_sensor_topics
 
 __all__ = [
     "Configuration",
+    "FlightSample",
     "Geofence",
     "Home",
     "MissionResult",
     "MuJoCo",
-    "Sample",
     "Topics",
     "Waypoint",
     "WaypointReached",
@@ -164,7 +164,7 @@ class Configuration(msgspec.Struct, frozen=True):
             )
 
 
-class Sample(msgspec.Struct, frozen=True, kw_only=True):
+class FlightSample(msgspec.Struct, frozen=True, kw_only=True):
     """One trajectory sample as the ground station sees it, plus the world's ground truth.
 
     ``lat``/``lon`` (deg), ``alt`` (m above home) and ``x``/``y``/``z`` (local NED, m) are the
@@ -212,7 +212,7 @@ class MissionResult(msgspec.Struct, frozen=True, kw_only=True):
     reported (AUTOPILOT_VERSION, e.g. ``"1.15.4"``).
     """
 
-    trajectory: list[Sample]
+    trajectory: list[FlightSample]
     reached: list[WaypointReached]
     completed: bool
     reason: str

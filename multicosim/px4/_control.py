@@ -12,12 +12,12 @@ import math
 
 import numpy as np
 
+from ..geo import GRAVITY
 from ._airframe import NONE_IRIS, Airframe
 from ._estimator import rotation_matrix
 
 __all__ = ["MultirotorController", "Vehicle", "position_control"]
 
-GRAVITY = 9.80665
 HOVER_THRUST = 0.5  # PX4's MPC_THR_HOVER: the normalized thrust that hovers
 
 

@@ -14,11 +14,10 @@ from __future__ import annotations
 
 import math
 
-from ..geo import LocalProjection
+from ..geo import GRAVITY, LocalProjection
 
 __all__ = ["Estimator", "rotation_matrix"]
 
-GRAVITY = 9.80665
 
 # Complementary-filter gains (per update at the stated rate).
 K_GPS_POS = 0.25  # 10 Hz

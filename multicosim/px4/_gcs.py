@@ -19,7 +19,7 @@ from typing import Any, Literal
 import msgspec
 
 from .._runtime import Firmware, FirmwareContext
-from ._config import Configuration, MissionResult, Sample, WaypointReached
+from ._config import Configuration, FlightSample, MissionResult, WaypointReached
 from ._hil import MavlinkPacket, Truth
 from ._mav import decode_frames, mode_label, new_link
 
@@ -207,7 +207,7 @@ class GroundStation:
         self.requested: list[int] = []
         self.params: dict[str, float] = {}
         self.reached: list[tuple[int, float]] = []
-        self.samples: list[Sample] = []
+        self.samples: list[FlightSample] = []
         self.recording = False
         self.position: Any = None
         self.version = ""
@@ -293,7 +293,7 @@ class GroundStation:
         truth = self.truth.latest
         hb = self.heartbeat
         self.samples.append(
-            Sample(
+            FlightSample(
                 time=self.ctx.time,
                 lat=g.lat * 1e-7,
                 lon=g.lon * 1e-7,

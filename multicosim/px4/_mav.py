@@ -7,13 +7,12 @@ PX4 reports its flight mode in HEARTBEAT.custom_mode as ``main_mode << 16 | sub_
 from __future__ import annotations
 
 import enum
-import importlib
 import struct
 from collections import deque
 from types import ModuleType
 from typing import Any
 
-from .._errors import DependencyMissingError
+from .._deps import require
 
 __all__ = [
     "MainMode",
@@ -35,10 +34,7 @@ def dialect(name: str = "common") -> ModuleType:
     """
     module = _dialects.get(name)
     if module is None:
-        try:
-            module = importlib.import_module(f"pymavlink.dialects.v20.{name}")
-        except ImportError as exc:  # pragma: no cover - depends on the installation
-            raise DependencyMissingError("pymavlink", "mavlink") from exc
+        module = require(f"pymavlink.dialects.v20.{name}", "mavlink")
         _dialects[name] = module
     return module
 

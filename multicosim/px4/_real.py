@@ -480,7 +480,7 @@ def start_sitl(
     waits, in lockstep, for the simulation's clock. Every part started is stopped again if
     a later one fails.
     """
-    from .._local import ParticipantComponent, ProcessComponent
+    from .._local import InProcessComponent, ProcessComponent
     from ._sitl import Link, UdpBridge
 
     group = SitlNodes(name)
@@ -496,7 +496,7 @@ def start_sitl(
             instance, server = claim_instance(
                 host, gcs_link=uplink is None, first=sitl.first_instance
             )
-        bridge_node = ParticipantComponent(
+        bridge_node = InProcessComponent(
             lambda: HilTcpBridge(
                 topics,
                 period=period,
@@ -514,7 +514,7 @@ def start_sitl(
             up = uplink
             # The bridge carries a ground station's UDP traffic to an autopilot's topics; here
             # PX4 is on the UDP side, so what it sends goes down to our ground station.
-            link_node = ParticipantComponent(
+            link_node = InProcessComponent(
                 lambda: UdpBridge([Link(API_LOCAL_PORT + instance, 0, host)], downlink, up, 0.01),
                 f"{name}.link",
             ).start(environment)

@@ -26,21 +26,24 @@ import dataclasses
 import math
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Literal, cast
+from typing import TYPE_CHECKING, Any, cast
 
 import msgspec
 
 from .._errors import ConfigurationError, MessageTypeError, MulticosimError
+from .._fidelity import BACKENDS, FIDELITIES, Backend, Fidelity, check_fidelity
 from .._interfaces import Component, Node, NodeId
 from .._local import (
+    InProcessComponent,
     InProcessFirmwareComponent,
     InProcessFirmwareNode,
     LocalEnvironment,
-    ParticipantComponent,
     ProcessComponent,
     ProcessSimulation,
     ProcessSimulator,
     ScenarioSimulation,
+    participant_command,
+    required_images,
 )
 from .._messages import type_name
 from ._autopilot import Autopilot, AutopilotSpec
@@ -77,10 +80,6 @@ __all__ = [
     "default_world",
 ]
 
-Fidelity = Literal["low", "medium", "high"]
-Backend = Literal["process", "docker"]
-FIDELITIES: tuple[Fidelity, ...] = ("low", "medium", "high")
-BACKENDS: tuple[Backend, ...] = ("process", "docker")
 LOW_PERIOD = 0.1  # a 10 Hz loop suffices for a point mass and keeps a minute of flight >= 1000x
 # High fidelity: the same 100 Hz lockstep, with the rigid body integrated four times finer
 # and the constraint solver given twice the iterations.
@@ -98,11 +97,6 @@ def sitl_period(world: MuJoCo) -> float:
     return round(world.timestep * steps, 9)
 
 
-def _check_fidelity(fidelity: object) -> None:
-    if fidelity not in FIDELITIES:
-        raise ConfigurationError("fidelity", fidelity, "'low', 'medium' or 'high'")
-
-
 def _check_image(image: object) -> None:
     if image is not None and (not isinstance(image, str) or not image.strip()):
         raise ConfigurationError("image", image, "None or a local image name such as 'name:tag'")
@@ -116,18 +110,7 @@ def _in_process(fidelity: str, process: bool | None) -> bool:
 
 
 def _participant_command(factory: str, spec: msgspec.Struct) -> list[str]:
-    return [sys.executable, "-m", *_program(factory, spec)]
-
-
-def needs_images(component: object) -> bool:
-    """Whether ``component`` runs containers (it names images it needs)."""
-    images = getattr(component, "required_images", None)
-    return callable(images) and bool(images())
-
-
-def _program(factory: str, spec: msgspec.Struct) -> list[str]:
-    """The participant program's command, as the runtime image runs it."""
-    return ["multicosim", "participant", factory, "--config", msgspec.json.encode(spec).decode()]
+    return [sys.executable, "-m", *participant_command(factory, spec)]
 
 
 def _start_participant(
@@ -142,7 +125,9 @@ def _start_participant(
         raise ConfigurationError(
             "image", image, "None outside a ContainerSimulator (containers need its network)"
         )
-    return ContainerComponent(image, _program(factory, spec), name=name).start(environment)
+    return ContainerComponent(image, participant_command(factory, spec), name=name).start(
+        environment
+    )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -161,7 +146,7 @@ class WorldComponent:
     image: str | None = None
 
     def __post_init__(self) -> None:
-        _check_fidelity(self.fidelity)
+        check_fidelity(self.fidelity)
         if not isinstance(self.world, MuJoCo):
             raise ConfigurationError("world", self.world, "a px4.MuJoCo configuration")
         _check_image(self.image)
@@ -185,7 +170,7 @@ class WorldComponent:
         """Start the world in this process, as a process or as a container."""
         spec = self.spec
         if self.image is None and _in_process(self.fidelity, self.process):
-            return ParticipantComponent(lambda: world(spec), self.name).start(environment)
+            return InProcessComponent(lambda: world(spec), self.name).start(environment)
         return _start_participant(
             environment, self.name, "multicosim.px4._world:world", spec, self.image
         )
@@ -303,7 +288,7 @@ class PX4Component:
         return 10.0 if self.fidelity == "low" else 20.0
 
     def __post_init__(self) -> None:
-        _check_fidelity(self.fidelity)
+        check_fidelity(self.fidelity)
         if not isinstance(self.world, MuJoCo):
             raise ConfigurationError("world", self.world, "a px4.MuJoCo configuration")
         if not isinstance(self.geofence, Geofence):
@@ -363,7 +348,7 @@ class PX4Component:
         if self.firmware is not None:
             return self._start_sitl(environment, spec)
         if self.image is None and _in_process(self.fidelity, self.process):
-            autopilot: Node = ParticipantComponent(lambda: Autopilot(spec), self.name).start(
+            autopilot: Node = InProcessComponent(lambda: Autopilot(spec), self.name).start(
                 environment
             )
         else:
@@ -455,7 +440,7 @@ class PX4:
     finer step, ``HIGH_FIDELITY_WORLD``, unless ``world`` is given); ``backend`` where the
     world and the autopilot run ("process": in this process at low fidelity, else local
     processes; "docker": containers of ``multicosim.docker.RUNTIME_IMAGE``, built with
-    ``python -m multicosim.docker build``). ``firmware`` picks the autopilot: None for the
+    ``multicosim images build``). ``firmware`` picks the autopilot: None for the
     built-in one, ``px4.SITL(binary=...)`` for real PX4 SITL (a process on the process
     backend, a container on the docker backend) flying the MuJoCo world, which then runs
     in this process (or its container) at PX4's 250 Hz sensor rate. ``seed`` fixes every
@@ -479,7 +464,7 @@ class PX4:
         run_dir: str | None = None,
         firmware: SITL | None = None,
     ) -> None:
-        _check_fidelity(fidelity)
+        check_fidelity(fidelity)
         world = world if world is not None else default_world(fidelity)
         if not isinstance(world, MuJoCo):
             raise ConfigurationError("world", world, "a px4.MuJoCo configuration")
@@ -547,7 +532,7 @@ class PX4:
         """
         return self._firmware.spec.wire
 
-    def remap(self, sensor: str, topic: str) -> None:
+    def read_sensor_from(self, sensor: str, topic: str) -> None:
         """Have the autopilot read ``sensor`` (imu, mag, baro, gps) from ``topic`` instead.
 
         Before start; an injector then fills ``topic`` from the world's topic.
@@ -563,7 +548,7 @@ class PX4:
 
         Any component runs on the docker backend; container components need it.
         """
-        if self.backend != "docker" and needs_images(component):
+        if self.backend != "docker" and required_images(component):
             raise ConfigurationError(
                 "component",
                 component,

@@ -20,7 +20,7 @@ from typing import Any
 
 import msgspec
 
-from .._local import LocalEnvironment, ParticipantComponent, ProcessSimulator
+from .._local import InProcessComponent, LocalEnvironment, ProcessSimulator
 from .._runtime import StepContext, Subscription
 from ._autopilot import Autopilot
 from ._config import MuJoCo, world_topics
@@ -129,11 +129,9 @@ def run_sitl(
     spec = msgspec.structs.replace(px4.spec, streams="onboard")
     sim = ProcessSimulator(seed=seed, realtime=speed)
     sim.add(WorldComponent(world, fidelity, process=False))
-    sim.add(ParticipantComponent(lambda: Autopilot(spec), "px4"))
+    sim.add(InProcessComponent(lambda: Autopilot(spec), "px4"))
     bridge_id = sim.add(
-        ParticipantComponent(
-            lambda: UdpBridge(links, spec.uplink, spec.downlink, spec.period), "udp"
-        )
+        InProcessComponent(lambda: UdpBridge(links, spec.uplink, spec.downlink, spec.period), "udp")
     )
     with sim.start() as simulation:
         bridge: Any = simulation.get(bridge_id).participant

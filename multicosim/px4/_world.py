@@ -22,6 +22,7 @@ import msgspec
 
 from .._errors import ConfigurationError
 from .._runtime import StepContext, Subscription
+from ..geo import GRAVITY
 from ..mujoco._config import WorldConfig
 from ._hil import (
     ACTUATOR_FLAG_VELOCITY,
@@ -35,7 +36,6 @@ from ._sensors import HilSensors
 
 __all__ = ["PointMassWorld", "WorldSpec", "world"]
 
-GRAVITY = 9.80665
 
 Model = Literal["point_mass", "mujoco"]
 

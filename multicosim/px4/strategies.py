@@ -2,12 +2,12 @@
 
 Everything generated is valid by construction (inside the geofence around home, sensible
 physics options), so a property test spends its examples on behaviour, not on input
-validation::
+validation. Ranges are ``(low, high)`` tuples, as in :mod:`multicosim.strategies`::
 
     from hypothesis import given
     from multicosim.px4 import strategies as px4st
 
-    @given(px4st.missions(max_waypoints=3))
+    @given(px4st.missions(count=(1, 3), altitude=(10.0, 30.0)))
     def test_mission(config): ...
 """
 
@@ -15,66 +15,70 @@ from __future__ import annotations
 
 import math
 
-from hypothesis import strategies as st
-
+from .._deps import require
 from ..geo import LocalProjection
 from ._config import Configuration, Geofence, Home, MissionEnd, MuJoCo, Waypoint
+
+require("hypothesis", "hypothesis")
+from hypothesis import strategies as st  # noqa: E402 - after the dependency check, which names the extra
+
+from ..strategies import Range, check_range  # noqa: E402
 
 __all__ = ["missions", "waypoints", "worlds"]
 
 
-@st.composite
 def waypoints(
-    draw: st.DrawFn,
     home: Home | None = None,
     *,
-    max_distance: float = 200.0,
-    min_alt: float = 5.0,
-    max_alt: float = 50.0,
+    distance: Range = (0.0, 200.0),
+    altitude: Range = (5.0, 50.0),
     geofence: Geofence | None = None,
-) -> Waypoint:
-    """A waypoint within ``max_distance`` m of ``home`` (and inside ``geofence``)."""
+) -> st.SearchStrategy[Waypoint]:
+    """A waypoint ``distance`` m from ``home`` at ``altitude`` m, inside ``geofence``."""
     home = home or Home()
     fence = geofence or Geofence()
-    radius = min(max_distance, fence.radius * 0.95)
-    top = min(max_alt, fence.max_alt)
-    # Uniform over the disc: sqrt of a uniform radius fraction.
-    r = radius * math.sqrt(draw(st.floats(0.0, 1.0)))
-    bearing = draw(st.floats(0.0, 2 * math.pi, exclude_max=True))
-    lat, lon = LocalProjection(home.lat, home.lon).reproject(
-        r * math.cos(bearing), r * math.sin(bearing)
-    )
-    alt = draw(st.floats(min(min_alt, top), top))
-    return Waypoint(round(lat, 7), round(lon, 7), round(alt, 2))
+    near, far = check_range("distance", distance, low=0.0, high=1e5)
+    low, high = check_range("altitude", altitude, low=0.0, high=10_000.0)
+    far = min(far, fence.radius * 0.95)
+    near = min(near, far)
+    top = min(high, fence.max_alt)
+    projection = LocalProjection(home.lat, home.lon)
+
+    @st.composite
+    def draw_waypoint(draw: st.DrawFn) -> Waypoint:
+        # Uniform over the ring: the square root of a uniform fraction of its area.
+        area = draw(st.floats(0.0, 1.0))
+        r = math.sqrt(near**2 + area * (far**2 - near**2))
+        bearing = draw(st.floats(0.0, 2 * math.pi, exclude_max=True))
+        lat, lon = projection.reproject(r * math.cos(bearing), r * math.sin(bearing))
+        alt = draw(st.floats(min(low, top), top))
+        return Waypoint(round(lat, 7), round(lon, 7), round(alt, 2))
+
+    return draw_waypoint()
 
 
-@st.composite
 def missions(
-    draw: st.DrawFn,
     home: Home | None = None,
     *,
-    min_waypoints: int = 1,
-    max_waypoints: int = 4,
-    max_distance: float = 200.0,
-    min_alt: float = 5.0,
-    max_alt: float = 50.0,
+    count: tuple[int, int] = (1, 4),
+    distance: Range = (0.0, 200.0),
+    altitude: Range = (5.0, 50.0),
     geofence: Geofence | None = None,
     ends: tuple[MissionEnd, ...] = ("land", "rtl", "hold"),
     time_limit: float = 600.0,
-) -> Configuration:
-    """A mission Configuration with waypoints inside the geofence around ``home``."""
-    wps = draw(
-        st.lists(
-            waypoints(
-                home, max_distance=max_distance, min_alt=min_alt, max_alt=max_alt, geofence=geofence
-            ),
-            min_size=min_waypoints,
-            max_size=max_waypoints,
-        )
-    )
-    end = draw(st.sampled_from(ends))
-    speed = draw(st.sampled_from((3.0, 5.0, 8.0)))
-    return Configuration(wps, end=end, cruise_speed=speed, time_limit=time_limit)
+) -> st.SearchStrategy[Configuration]:
+    """A mission Configuration of ``count`` waypoints inside the geofence around ``home``."""
+    fewest, most = check_range("count", count, low=1, high=100, integer=True)
+    points = waypoints(home, distance=distance, altitude=altitude, geofence=geofence)
+
+    @st.composite
+    def draw_mission(draw: st.DrawFn) -> Configuration:
+        wps = draw(st.lists(points, min_size=int(fewest), max_size=int(most)))
+        end = draw(st.sampled_from(ends))
+        speed = draw(st.sampled_from((3.0, 5.0, 8.0)))
+        return Configuration(wps, end=end, cruise_speed=speed, time_limit=time_limit)
+
+    return draw_mission()
 
 
 @st.composite

@@ -32,7 +32,7 @@ from ._messages import (
     MagneticField,
     Mission,
     Position,
-    Sample,
+    SensedSample,
     Trajectory,
     WheelSpeed,
 )
@@ -92,7 +92,7 @@ __all__ = [
     "Rover",
     "RoverSimulation",
     "RoverWorldConfig",
-    "Sample",
+    "SensedSample",
     "SensorNoise",
     "State",
     "Trajectory",

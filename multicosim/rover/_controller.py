@@ -18,7 +18,7 @@ from ._messages import (
     MagneticField,
     Mission,
     Position,
-    Sample,
+    SensedSample,
     Trajectory,
     WheelSpeed,
 )
@@ -62,7 +62,7 @@ def controller(mission: Mission, ctx: FirmwareContext) -> Trajectory:
 
     start = ctx.time
     automaton = Automaton(mission, start)
-    samples: list[Sample] = []
+    samples: list[SensedSample] = []
     while True:
         pos, field, wheels = position.latest, compass.latest, odometry.latest
         assert pos is not None
@@ -81,7 +81,7 @@ def controller(mission: Mission, ctx: FirmwareContext) -> Trajectory:
         # Set-points are streamed every period, like a real controller's.
         ctx.publish(COMMAND_TOPIC, command)
         samples.append(
-            Sample(
+            SensedSample(
                 time=now,
                 x=pos.x,
                 y=pos.y,

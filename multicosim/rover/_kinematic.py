@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
-from ..geo import local_to_geodetic, quaternion_from_euler
+from ..geo import GRAVITY, local_to_geodetic, quaternion_from_euler
 from ._messages import (
     COMMAND_TOPIC,
     MAX_STEERING,
@@ -35,9 +35,7 @@ from ._vehicle import (
 if TYPE_CHECKING:
     from .._runtime import StepContext, Subscription
 
-__all__ = ["GRAVITY", "KinematicWorld", "kinematic_world"]
-
-GRAVITY = 9.81
+__all__ = ["KinematicWorld", "kinematic_world"]
 
 
 class KinematicWorld:

@@ -28,7 +28,7 @@ __all__ = [
     "MagneticField",
     "Mission",
     "Position",
-    "Sample",
+    "SensedSample",
     "Trajectory",
     "WheelSpeed",
 ]
@@ -209,7 +209,7 @@ class Mission(Message):
         return self.speed if self.turn_speed is None else self.turn_speed
 
 
-class Sample(Message):
+class SensedSample(Message):
     """One point of the trajectory, as the controller sensed it."""
 
     time: float
@@ -229,26 +229,26 @@ class Trajectory(Message):
     ``timed_out``); ``completed`` is true when the whole plan was driven.
     """
 
-    samples: list[Sample]
+    samples: list[SensedSample]
     final_state: str
     completed: bool
     reason: str = ""
     start_time: float = 0.0
 
-    def __iter__(self) -> Iterator[Sample]:
+    def __iter__(self) -> Iterator[SensedSample]:
         return iter(self.samples)
 
     def __len__(self) -> int:
         return len(self.samples)
 
     @property
-    def final(self) -> Sample:
+    def final(self) -> SensedSample:
         """The last sample (the rover at rest, once the mission ended)."""
         return self.samples[-1]
 
     @property
     def times(self) -> list[float]:
-        """Sample times (simulated seconds)."""
+        """SensedSample times (simulated seconds)."""
         return [s.time for s in self.samples]
 
     def states(self) -> list[str]:

@@ -33,17 +33,19 @@ import math
 from typing import TYPE_CHECKING, Any, Literal, TypeVar, cast, overload
 
 from .._errors import ConfigurationError
+from .._fidelity import BACKENDS, FIDELITIES, Backend, Fidelity, check_fidelity
 from .._interfaces import CommunicationNode, Component, Node, NodeId
 from .._local import (
-    FirmwareProcessComponent,
+    InProcessComponent,
     InProcessFirmwareComponent,
     LocalEnvironment,
-    ParticipantComponent,
     ProcessComponent,
+    ProcessFirmwareComponent,
     ProcessSimulation,
     ProcessSimulator,
     ScenarioSimulation,
-    config_json,
+    participant_command,
+    required_images,
 )
 from ..mujoco._config import WorldConfig
 from ._controller import controller
@@ -71,10 +73,6 @@ __all__ = [
 
 NodeT = TypeVar("NodeT", bound=Node)
 
-Fidelity = Literal["low", "medium", "high"]
-Backend = Literal["process", "docker"]
-FIDELITIES: tuple[Fidelity, ...] = ("low", "medium", "high")
-BACKENDS: tuple[Backend, ...] = ("process", "docker")
 
 WORLD_NAME = "world"
 CONTROLLER_NAME = "controller"
@@ -124,13 +122,7 @@ def world_command(
     factory = (
         "multicosim.rover:kinematic_world" if fidelity == "low" else "multicosim.mujoco:rover_world"
     )
-    return ["multicosim", "participant", factory, "--config", config_json(config)]
-
-
-def _needs_images(component: object) -> bool:
-    """Whether ``component`` runs containers (it names images it needs)."""
-    images = getattr(component, "required_images", None)
-    return callable(images) and bool(images())
+    return participant_command(factory, config)
 
 
 def _check_backend(backend: object) -> None:
@@ -179,7 +171,7 @@ def world_component(
 
         return ContainerComponent(_runtime_image(), world_command(config, fidelity), name=name)
     if fidelity == "low":
-        return ParticipantComponent(lambda: KinematicWorld(config), name=name)
+        return InProcessComponent(lambda: KinematicWorld(config), name=name)
     return ProcessComponent(["python", "-m", *world_command(config, fidelity)], name=name)
 
 
@@ -197,13 +189,13 @@ def controller_component(
     """The FSA controller, run where ``backend`` says.
 
     Process backend: in-process at low fidelity, else a firmware process. Docker backend: a
-    FirmwareComponent of the runtime image, at every fidelity.
+    ContainerFirmwareComponent of the runtime image, at every fidelity.
     """
     _check_backend(backend)
     if backend == "docker":
-        from ..docker import FirmwareComponent
+        from ..docker import ContainerFirmwareComponent
 
-        return FirmwareComponent(
+        return ContainerFirmwareComponent(
             image=_runtime_image(),
             command=[*CONTROLLER_COMMAND, "--host", "0.0.0.0"],
             port=CONTAINER_PORT,
@@ -213,7 +205,7 @@ def controller_component(
         )
     if fidelity == "low":
         return InProcessFirmwareComponent(controller, name=name)
-    return FirmwareProcessComponent(
+    return ProcessFirmwareComponent(
         ["python", "-m", *CONTROLLER_COMMAND],
         msgtype=Mission,
         replytype=Trajectory,
@@ -271,7 +263,7 @@ class Rover:
     solver iterations and faster sensors). ``backend`` picks where they run: ``process``
     (in this process at low fidelity, else world and controller as local processes in
     lockstep) or ``docker`` (each a container of ``multicosim.docker.RUNTIME_IMAGE`` on the
-    simulation's network; build it with ``python -m multicosim.docker build``).
+    simulation's network; build it with ``multicosim images build``).
     ``world`` overrides the physics world configuration, ``noise`` the sensor noise.
     Components added with ``add`` (injectors, monitors) step between the world and the
     controller, in add order; on the docker backend they may be containers too.
@@ -287,8 +279,7 @@ class Rover:
         *,
         realtime: float | None = None,
     ) -> None:
-        if fidelity not in FIDELITIES:
-            raise ConfigurationError("fidelity", fidelity, f"one of {FIDELITIES}")
+        check_fidelity(fidelity)
         _check_backend(backend)
         if world is not None and not isinstance(world, WorldConfig):
             raise ConfigurationError("world", world, "a multicosim.mujoco.WorldConfig or None")
@@ -320,7 +311,7 @@ class Rover:
 
         Any component runs on the docker backend; container components need it.
         """
-        if self.backend != "docker" and _needs_images(component):
+        if self.backend != "docker" and required_images(component):
             raise ConfigurationError(
                 "component",
                 component,
@@ -328,7 +319,7 @@ class Rover:
             )
         return self._add(component)
 
-    def remap(self, sensor: str, topic: str) -> None:
+    def publish_sensor_on(self, sensor: str, topic: str) -> None:
         """Have the world publish ``sensor`` on ``topic`` instead (before start).
 
         An injector added with ``add`` then republishes it on the topic the controller reads.

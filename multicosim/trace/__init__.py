@@ -30,6 +30,7 @@ TestTrace), ``_hypothesis`` (Hypothesis's failing example), ``_plot``, ``_cli``.
 
 from __future__ import annotations
 
+from .. import requirements as _requirements
 from ._cli import plot_command
 from ._convert import (
     LOCATION_CHANNEL,
@@ -127,5 +128,5 @@ __all__ = [
     "write_tlog",
 ]
 
-# Requirement.evaluate hands evaluations to the active test's trace through this.
-_note_evaluation = _note_evaluation
+# Every requirement evaluated while a test records is noted in that test's trace.
+_requirements.add_observer(_note_evaluation)

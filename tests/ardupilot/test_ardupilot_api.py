@@ -23,7 +23,7 @@ EXPECTED = {
     "Home",
     "MissionResult",
     "Rover",
-    "Sample",
+    "FlightSample",
     "Waypoint",
     "WaypointReached",
     "WorldConfig",

@@ -53,7 +53,7 @@ class Probe:
 
 def probe(simulator: Any, topic: str, tp: type[Any], name: str) -> Probe:
     recorder = Probe(topic, tp)
-    simulator.add(mcs.ParticipantComponent(lambda: recorder, name))
+    simulator.add(mcs.InProcessComponent(lambda: recorder, name))
     return recorder
 
 
@@ -202,7 +202,7 @@ def test_the_link_carries_mavlink_both_ways_and_strangers_are_ignored(tmp_path: 
             msg = self.mav.command_long_encode(1, 1, 512, 0, 148, 0, 0, 0, 0, 0, 0)
             ctx.publish("ardupilot/mavlink/up", MavlinkPacket(bytes(msg.pack(self.mav))))
 
-    simulator.add(mcs.ParticipantComponent(Sender, "sender"))
+    simulator.add(mcs.InProcessComponent(Sender, "sender"))
     with simulator.start() as simulation:
         bridge = simulation.firmware._autopilot.bridge
         assert bridge is not None

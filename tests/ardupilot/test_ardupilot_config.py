@@ -10,6 +10,7 @@ import json
 import math
 import socket
 from pathlib import Path
+from typing import Any
 
 import pytest
 from ardupilot_helpers import fake_ardupilot
@@ -146,7 +147,8 @@ def test_pwm_maps_onto_motors_and_the_rovers_steering_and_throttle() -> None:
     assert motor_outputs([900, 2100, 1000, 1000], 4) == [0.0, 1.0, 0.0, 0.0]
     # ArduRover: steering output above trim turns right (our steering: + is left).
     speed, steering = rover_command([2000, 0, 1750] + [0] * 13, 10.0, 0.5)
-    assert (speed, steering) == (pytest.approx(5.0), pytest.approx(-0.5))
+    assert speed == pytest.approx(5.0)
+    assert steering == pytest.approx(-0.5)
     assert rover_command([0] * 16, 10.0, 0.5) == (0.0, 0.0)
     assert rover_params(10.0)["CRUISE_THROTTLE"] == 50.0
 
@@ -223,7 +225,8 @@ def test_instances_are_claimed_from_the_first_one_given(tmp_path: Path) -> None:
         claim_instance(first=99)
     assert last == 99
     directory = str(fake_ardupilot(tmp_path / "ap"))
-    for bad in (-1, 100, 1.5, True):
+    bads: tuple[Any, ...] = (-1, 100, 1.5, True)
+    for bad in bads:
         with pytest.raises(mcs.ConfigurationError, match="first_instance"):
             ardupilot.SITL(directory=directory, first_instance=bad)
         with pytest.raises(mcs.ConfigurationError, match="first_instance"):
@@ -266,16 +269,15 @@ def test_gps_models_become_glitch_offsets_dropout_and_lag() -> None:
     north, east = proj.project(
         home.lat + half["SIM_GPS_GLITCH_X"], home.lon + half["SIM_GPS_GLITCH_Y"]
     )
-    assert (north, east) == (pytest.approx(5.0, abs=1e-6), pytest.approx(0.0, abs=1e-9))
+    assert north == pytest.approx(5.0, abs=1e-6)
+    assert east == pytest.approx(0.0, abs=1e-9)
     both = faults.wanted(25.0, rng)  # 10 m north and 3 m east, 1 m down
     north, east = proj.project(
         home.lat + both["SIM_GPS_GLITCH_X"], home.lon + both["SIM_GPS_GLITCH_Y"]
     )
-    assert (north, east, both["SIM_GPS_GLITCH_Z"]) == (
-        pytest.approx(10.0, abs=1e-6),
-        pytest.approx(3.0, abs=1e-6),
-        -1.0,
-    )
+    assert north == pytest.approx(10.0, abs=1e-6)
+    assert east == pytest.approx(3.0, abs=1e-6)
+    assert both["SIM_GPS_GLITCH_Z"] == -1.0
     assert faults.wanted(45.0, rng)["SIM_GPS_DISABLE"] == 1.0
     assert faults.wanted(55.0, rng)["SIM_GPS_DISABLE"] == 0.0
     assert faults.wanted(65.0, rng)["SIM_GPS_LAG_MS"] == 350.0

@@ -21,6 +21,7 @@ from ardupilot_helpers import wp
 import multicosim as mcs
 import multicosim.ardupilot as ardupilot
 from multicosim.ardupilot._bridge import process_ports
+from multicosim.docker import ContainerSimulation
 from multicosim.geo import LocalProjection
 
 pytestmark = pytest.mark.usefixtures("no_leaks")
@@ -73,7 +74,7 @@ def test_arducopter_flies_a_mission_deaf_to_rc_input_and_leaves_its_dataflash_lo
                     sock.sendto(struct.pack("<16H", *channels), ("127.0.0.1", port))
                     sent.append(port)
 
-    simulator.add(mcs.ParticipantComponent(Hostile, "hostile"))
+    simulator.add(mcs.InProcessComponent(Hostile, "hostile"))
     with sock, simulator.start() as simulation:
         pid = simulation.firmware._autopilot.process.pid
         target["ports"] = sorted(p for proto, p in process_ports(pid) if proto == "udp")
@@ -127,6 +128,7 @@ def test_arducopter_listens_on_no_port_and_stops_cleanly(ardupilot_dir: str) -> 
         well_known = {5760 + 10 * instance + k for k in range(4)} | {5501 + 10 * instance}
         assert not {port for _, port in ports} & well_known
         # Its MAVLink link is a connection to the simulation, its physics an answered socket.
+        assert autopilot.bridge is not None
         assert ("tcp", autopilot.bridge.mavlink_port) not in ports
     finally:
         simulation.stop()
@@ -168,7 +170,7 @@ def test_arducopter_dying_mid_flight_is_reported_with_its_output(ardupilot_dir: 
             if ctx.time >= 5.0 and victim.get("pid"):
                 os.killpg(victim.pop("pid"), signal.SIGKILL)
 
-    simulator.add(mcs.ParticipantComponent(KillAt, "killer"))
+    simulator.add(mcs.InProcessComponent(KillAt, "killer"))
     with simulator.start() as simulation:
         victim["pid"] = simulation.firmware._autopilot.process.pid
         with pytest.raises(mcs.NodeCrashedError) as info:
@@ -196,5 +198,7 @@ def test_arducopter_flies_in_a_container_on_the_simulation_network(
     assert result.firmware_version == "4.5.6"
     # Nothing of it is published on the host; it is on the simulation's own network.
     assert not any(attrs["HostConfig"].get("PortBindings") or {})
-    assert list(attrs["NetworkSettings"]["Networks"]) == [simulation.simulation.network]
-    assert attrs["Config"]["Labels"]["multicosim.run"] == simulation.simulation.run_id
+    inner = simulation.simulation
+    assert isinstance(inner, ContainerSimulation)
+    assert list(attrs["NetworkSettings"]["Networks"]) == [inner.network]
+    assert attrs["Config"]["Labels"]["multicosim.run"] == inner.run_id

@@ -41,7 +41,7 @@ class Sink:
     """Keeps what arrives on the firmware's topic, with the time it arrived."""
 
     def __call__(self) -> Sink:
-        """Itself: a factory for ParticipantComponent that hands out this very sink."""
+        """Itself: a factory for InProcessComponent that hands out this very sink."""
         return self
 
     period = PERIOD
@@ -61,7 +61,7 @@ def run(models: list[attacks.Model], duration: float = 2.0, seed: int = 0) -> li
     """The rover positions the sink received through an injector with ``models``."""
     sink = Sink()
     simulator = mcs.ProcessSimulator(seed=seed)
-    simulator.add(mcs.ParticipantComponent(Source, name="source"))
+    simulator.add(mcs.InProcessComponent(Source, name="source"))
     config = attacks.InjectorConfig(
         vehicle="rover",
         sensor="gps",
@@ -71,7 +71,7 @@ def run(models: list[attacks.Model], duration: float = 2.0, seed: int = 0) -> li
         models=tuple(models),
     )
     simulator.add(attacks.InjectorComponent(config))
-    simulator.add(mcs.ParticipantComponent(sink, name="sink"))
+    simulator.add(mcs.InProcessComponent(sink, name="sink"))
     with simulator.start() as simulation:
         simulation.advance(duration)
     return sink.received
@@ -155,9 +155,9 @@ def test_injector_runs_the_same_as_a_process() -> None:
     for process in (False, True):
         sink = Sink()
         simulator = mcs.ProcessSimulator(seed=5)
-        simulator.add(mcs.ParticipantComponent(Source, name="source"))
+        simulator.add(mcs.InProcessComponent(Source, name="source"))
         simulator.add(attacks.InjectorComponent(config, process=process))
-        simulator.add(mcs.ParticipantComponent(sink, "sink"))
+        simulator.add(mcs.InProcessComponent(sink, "sink"))
         with simulator.start() as simulation:
             simulation.advance(2.0)
         results.append(sink.received)
@@ -416,16 +416,16 @@ def test_px4_trace_shows_truth_and_estimate_on_the_map(tmp_path: Any) -> None:
 
 def test_simulator_places_and_replaces_components_before_start() -> None:
     simulator = mcs.ProcessSimulator()
-    first = simulator.add(mcs.ParticipantComponent(Source, name="source"))
-    last = simulator.add(mcs.ParticipantComponent(Sink(), name="sink"))
-    middle = simulator.add(mcs.ParticipantComponent(Sink(), name="middle"), before=last)
+    first = simulator.add(mcs.InProcessComponent(Source, name="source"))
+    last = simulator.add(mcs.InProcessComponent(Sink(), name="sink"))
+    middle = simulator.add(mcs.InProcessComponent(Sink(), name="middle"), before=last)
     assert [nid for nid, _ in simulator._components] == [first, middle, last]
     other = mcs.ProcessSimulator()
     with pytest.raises(mcs.ConfigurationError, match="node_id"):
-        other.add(mcs.ParticipantComponent(Source, name="x"), before=last)
+        other.add(mcs.InProcessComponent(Source, name="x"), before=last)
     sink = Sink()
-    simulator.replace(last, mcs.ParticipantComponent(sink, name="sink"))
+    simulator.replace(last, mcs.InProcessComponent(sink, name="sink"))
     with simulator.start() as simulation:
         assert simulation.get(last).participant is sink
         with pytest.raises(mcs.MulticosimError, match="after start"):
-            simulator.replace(last, mcs.ParticipantComponent(Sink(), name="sink"))
+            simulator.replace(last, mcs.InProcessComponent(Sink(), name="sink"))

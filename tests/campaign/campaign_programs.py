@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 import multicosim.rover as rover
+from multicosim._fidelity import check_fidelity
 
 REQUIREMENT = "always (speed <= 4.5)"  # violated by the faster missions of the design
 RANGES = {"speed": (1.0, 8.0), "distance": (2.0, 6.0)}
@@ -16,7 +17,7 @@ RANGES = {"speed": (1.0, 8.0), "distance": (2.0, 6.0)}
 def simulate_rover(sample: dict[str, float], fidelity: str, seed: int) -> Any:
     """One low-fidelity rover mission per sample."""
     mission = rover.Mission(speed=sample["speed"], distance=sample["distance"], wait=0.5)
-    with rover.Rover(fidelity=fidelity, seed=seed).start() as simulation:
+    with rover.Rover(fidelity=check_fidelity(fidelity), seed=seed).start() as simulation:
         return simulation.controller.send(mission)
 
 

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import os
-import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -79,8 +78,7 @@ def test_ray_retries_a_killed_worker(cluster: RayExecutor, tmp_path: Path) -> No
 def test_ray_cancels_a_hanging_simulation(cluster: RayExecutor) -> None:
     design: list[dict[str, Any]] = [dict(s) for s in latin_hypercube(cp.RANGES, 6, seed=3)]
     design[1]["hang"] = True
-    started = time.monotonic()
+    # The flagged sample sleeps for an hour: that the campaign returns at all means it was cut.
     result = run_campaign(cp.simulate_or_hang, cp.REQUIREMENT, design, executor=cluster, timeout=2)
-    assert time.monotonic() - started < 30
     assert result.results[1].status == "timeout"
     assert all(r.status in ("ok", "violated") for i, r in enumerate(result.results) if i != 1)

@@ -7,31 +7,18 @@ Without a reachable engine the tests are skipped with the reason, unless
 from __future__ import annotations
 
 import functools
-import os
 from collections.abc import Callable, Iterator
 from typing import Any
 
 import pytest
 
-REQUIRE = os.environ.get("MCS_REQUIRE_DOCKER") == "1"
-
-
-def _unavailable(reason: str) -> None:
-    if REQUIRE:
-        pytest.fail(f"MCS_REQUIRE_DOCKER=1 but {reason}", pytrace=False)
-    pytest.skip(reason)
+from pytest_multicosim.plugin import docker_unavailable, require_docker
 
 
 @pytest.fixture(scope="session")
 def engine() -> Any:
     """The Docker client of this process; skips (or fails) without an engine."""
-    try:
-        from multicosim.docker import engine_available
-    except ImportError as exc:  # pragma: no cover - the docker extra is missing
-        _unavailable(f"the docker SDK is not installed: {exc}")
-    reason = engine_available()
-    if reason is not None:
-        _unavailable(f"no Docker engine: {reason}")
+    require_docker()
     from multicosim.docker._engine import client
 
     return client()
@@ -46,8 +33,8 @@ def image(engine: Any) -> str:
     try:
         return build_images()[0]
     except MulticosimError as exc:
-        _unavailable(f"the runtime image could not be built: {exc}")
-        raise  # unreachable: _unavailable skips or fails
+        docker_unavailable("the runtime image could not be built", str(exc))
+        raise  # unreachable: docker_unavailable skips or fails
 
 
 def _ours(engine: Any, **label: str) -> tuple[list[str], list[str]]:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 from typing import Any
 
@@ -13,9 +12,9 @@ from multicosim._runtime import derive_seed
 from multicosim.docker import (
     AttachedComponent,
     ContainerComponent,
+    ContainerFirmwareComponent,
     ContainerNode,
     ContainerSimulator,
-    FirmwareComponent,
 )
 from multicosim.docker import _selftest as st
 
@@ -23,9 +22,9 @@ SERVE = "multicosim serve multicosim.docker._selftest:{} --host 0.0.0.0 --port {
 WORLD = "multicosim participant multicosim.docker._selftest:World"
 
 
-def echo(image: str, **kw: Any) -> FirmwareComponent[st.Echo, st.EchoReply]:
+def echo(image: str, **kw: Any) -> ContainerFirmwareComponent[st.Echo, st.EchoReply]:
     kw.setdefault("name", "echo")
-    return FirmwareComponent(
+    return ContainerFirmwareComponent(
         image=image, command=SERVE.format("echo"), msgtype=st.Echo, replytype=st.EchoReply, **kw
     )
 
@@ -54,11 +53,8 @@ def test_container_lifecycle_labels_and_cleanup(engine: Any, image: str, ours: A
         assert simulation.time == pytest.approx(0.05)
         assert node.poll() is None
     finally:
-        t0 = time.perf_counter()
         simulation.stop()
-        elapsed = time.perf_counter() - t0
     assert ours(run=simulation.run_id) == ([], [])
-    assert elapsed < 1.0, f"stopping one container and its network took {elapsed:.2f} s"
     simulation.stop()  # idempotent
 
 
@@ -88,13 +84,13 @@ def _lockstep(sim: Any, world: Any, controller: Any) -> st.Trajectory:
 def test_lockstep_containers_match_in_process_run(engine: Any, image: str) -> None:
     in_process = _lockstep(
         mcs.ProcessSimulator(seed=3),
-        mcs.ParticipantComponent(st.World, name="world"),
+        mcs.InProcessComponent(st.World, name="world"),
         mcs.InProcessFirmwareComponent(st.controller),
     )
     containers = _lockstep(
         ContainerSimulator(seed=3),
         ContainerComponent(image, WORLD, name="world"),
-        FirmwareComponent(
+        ContainerFirmwareComponent(
             image=image,
             command=SERVE.format("controller"),
             msgtype=st.Mission,
@@ -109,8 +105,8 @@ def test_lockstep_containers_match_in_process_run(engine: Any, image: str) -> No
 def test_in_process_world_with_container_controller(engine: Any, image: str) -> None:
     mixed = _lockstep(
         ContainerSimulator(seed=3),
-        mcs.ParticipantComponent(st.World, name="world"),
-        FirmwareComponent(
+        mcs.InProcessComponent(st.World, name="world"),
+        ContainerFirmwareComponent(
             image=image,
             command=SERVE.format("controller"),
             msgtype=st.Mission,
@@ -127,7 +123,7 @@ def test_attached_containers_talk_over_localhost(engine: Any, image: str) -> Non
         name="server",
         ready="started",
     )
-    relay = FirmwareComponent(
+    relay = ContainerFirmwareComponent(
         image=image,
         command=SERVE.format("relay"),
         msgtype=st.Echo,
@@ -135,7 +131,7 @@ def test_attached_containers_talk_over_localhost(engine: Any, image: str) -> Non
         name="relay",
     )
     # The same relay on the network but outside the shared stack cannot see the server.
-    outsider = FirmwareComponent(
+    outsider = ContainerFirmwareComponent(
         image=image,
         command=SERVE.format("relay"),
         msgtype=st.Echo,

@@ -12,9 +12,9 @@ import multicosim as mcs
 from multicosim.docker import (
     AttachedComponent,
     ContainerComponent,
+    ContainerFirmwareComponent,
     ContainerSimulator,
     EngineUnavailableError,
-    FirmwareComponent,
     ImageMissingError,
     sweep,
 )
@@ -24,9 +24,9 @@ SERVE = "multicosim serve multicosim.docker._selftest:{} --host 0.0.0.0 --port {
 WORLD = "multicosim participant multicosim.docker._selftest:World"
 
 
-def echo(image: str, **kw: Any) -> FirmwareComponent[st.Echo, st.EchoReply]:
+def echo(image: str, **kw: Any) -> ContainerFirmwareComponent[st.Echo, st.EchoReply]:
     kw.setdefault("name", "echo")
-    return FirmwareComponent(
+    return ContainerFirmwareComponent(
         image=image, command=SERVE.format("echo"), msgtype=st.Echo, replytype=st.EchoReply, **kw
     )
 
@@ -43,7 +43,7 @@ def test_missing_image_says_how_to_build_and_never_pulls(engine: Any, ours: Any)
     assert isinstance(err, mcs.NodeStartError)
     assert err.name == "fw"
     assert missing in str(err)
-    assert "python -m multicosim.docker build" in str(err)
+    assert "multicosim images build" in str(err)
     assert "never pulls" in str(err)
     assert not engine.api.images(name="multicosim/does-not-exist")
     assert ours(session=session_id()) == ([], [])  # checked before anything was created
@@ -76,7 +76,7 @@ def test_command_that_exits_at_once_is_named_with_code_and_output(
 def test_firmware_whose_command_fails_at_once(engine: Any, image: str) -> None:
     sim = ContainerSimulator()
     sim.add(
-        FirmwareComponent(
+        ContainerFirmwareComponent(
             image=image, command="multicosim serve no.such.module:fw --port {port}", name="fw"
         )
     )
@@ -136,7 +136,7 @@ def test_host_port_already_in_use(engine: Any, image: str, busy_port: int) -> No
 def test_firmware_bound_to_container_loopback_is_explained(engine: Any, image: str) -> None:
     sim = ContainerSimulator()
     sim.add(
-        FirmwareComponent(
+        ContainerFirmwareComponent(
             image=image,
             command="multicosim serve multicosim.docker._selftest:echo --port {port}",
             name="hidden",
@@ -152,7 +152,7 @@ def test_message_of_the_wrong_type(engine: Any, image: str) -> None:
     sim = ContainerSimulator()
     typed = sim.add(echo(image))
     untyped = sim.add(
-        FirmwareComponent[Any, Any](image=image, command=SERVE.format("echo"), name="raw")
+        ContainerFirmwareComponent[Any, Any](image=image, command=SERVE.format("echo"), name="raw")
     )
     with sim.start() as simulation:
         with pytest.raises(mcs.MessageTypeError, match="Echo"):
@@ -188,11 +188,14 @@ def test_engine_not_running(monkeypatch: pytest.MonkeyPatch, tmp_path: Any) -> N
         (lambda: ContainerComponent("img", "true", ready="soon"), "ready"),  # type: ignore[arg-type]
         (lambda: ContainerComponent("img", "true", env={"A": 1}), "env"),  # type: ignore[dict-item]
         (lambda: ContainerComponent("img", "true", stop_timeout=0), "stop_timeout"),
-        (lambda: FirmwareComponent(image="img", command="x", port=0), "port"),
-        (lambda: FirmwareComponent(image="img", command="x", port=True), "port"),
-        (lambda: FirmwareComponent(image="img", command="x", host_port=70000), "host_port"),
-        (lambda: FirmwareComponent(image="img", command="x", msgtype=3), "msgtype"),  # type: ignore[arg-type]
-        (lambda: FirmwareComponent(image="img", command="x", timeout=-1), "timeout"),
+        (lambda: ContainerFirmwareComponent(image="img", command="x", port=0), "port"),
+        (lambda: ContainerFirmwareComponent(image="img", command="x", port=True), "port"),
+        (
+            lambda: ContainerFirmwareComponent(image="img", command="x", host_port=70000),
+            "host_port",
+        ),
+        (lambda: ContainerFirmwareComponent(image="img", command="x", msgtype=3), "msgtype"),  # type: ignore[arg-type]
+        (lambda: ContainerFirmwareComponent(image="img", command="x", timeout=-1), "timeout"),
         (lambda: AttachedComponent(mcs.ProcessComponent("true"), []), "host"),  # type: ignore[arg-type]
         (
             lambda: AttachedComponent(
@@ -235,6 +238,9 @@ def test_names_must_be_unique_across_attached_groups() -> None:
 
 def test_default_names_come_from_the_program() -> None:
     assert ContainerComponent("img", WORLD).name == "World"
-    assert FirmwareComponent(image="img", command=SERVE.format("controller")).name == "controller"
+    assert (
+        ContainerFirmwareComponent(image="img", command=SERVE.format("controller")).name
+        == "controller"
+    )
     assert ContainerComponent("img", "/usr/bin/gz sim").name == "gz"
     assert ContainerComponent("reg/world:1", "python -m world").name == "world"

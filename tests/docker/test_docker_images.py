@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import time
 import tomllib
 from pathlib import Path
 from typing import Any
@@ -59,12 +58,9 @@ def test_build_is_skipped_when_nothing_changed(engine: Any, image: str) -> None:
     for _ in range(3):
         build_images()
         before = engine.api.inspect_image(image)
-        t0 = time.perf_counter()
         assert build_images() == [image]
-        elapsed = time.perf_counter() - t0
         after = engine.api.inspect_image(image)
         if after["Id"] == before["Id"]:
             break
     assert after["Id"] == before["Id"]
-    assert elapsed < 15
     assert after["Config"]["Labels"][LABEL_INPUTS]

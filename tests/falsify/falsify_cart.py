@@ -70,7 +70,7 @@ class CartScenario:
                 )
             )
             self.driver: mcs.NodeId[Any] = self.simulator.add(
-                mcs.FirmwareProcessComponent(
+                mcs.ProcessFirmwareComponent(
                     "python -m multicosim serve multicosim.testing:drive --port {port}",
                     msgtype=Drive,
                     replytype=DriveReport,
@@ -78,12 +78,12 @@ class CartScenario:
                 )
             )
         elif fidelity == "medium":
-            self.simulator.add(mcs.ParticipantComponent(lambda: Cart(noise=0.01), name="cart"))
+            self.simulator.add(mcs.InProcessComponent(lambda: Cart(noise=0.01), name="cart"))
             self.driver = self.simulator.add(
-                mcs.FirmwareThreadComponent(drive, replytype=DriveReport)
+                mcs.ThreadFirmwareComponent(drive, replytype=DriveReport)
             )
         else:
-            self.simulator.add(mcs.ParticipantComponent(Cart, name="cart"))
+            self.simulator.add(mcs.InProcessComponent(Cart, name="cart"))
             self.driver = self.simulator.add(mcs.InProcessFirmwareComponent(drive))
 
     def start(self) -> CartRun:

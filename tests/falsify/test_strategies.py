@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import functools
 import math
+import operator
+from collections.abc import Callable
 
 import pytest
 from falsify_cart import CartScenario
@@ -10,8 +13,13 @@ from hypothesis import find, given, settings
 from hypothesis import strategies as st
 
 import multicosim as mcs
+import multicosim.rover.strategies as rover_st
 import multicosim.strategies as mst
-from multicosim.mujoco import WorldConfig
+from multicosim import FIDELITIES
+from multicosim.geo import LocalProjection
+from multicosim.mujoco import INTEGRATORS, SOLVERS, WorldConfig
+from multicosim.px4 import Configuration, Home
+from multicosim.px4 import strategies as px4st
 
 
 @pytest.mark.parametrize(
@@ -37,31 +45,33 @@ def test_world_config_bounds(kwargs: dict[str, object], field: str, match: str) 
 @pytest.mark.parametrize(
     ("call", "field"),
     [
-        (lambda: mst.geofence_waypoints(radius=0.0), "radius"),
-        (lambda: mst.geofence_waypoints(altitude=(50.0, 10.0)), "altitude"),
-        (lambda: mst.geofence_waypoints(count=(0, 3)), "count"),
-        (lambda: mst.geofence_waypoints(home=(91.0, 0.0, 0.0)), "home"),
-        (lambda: mst.rover_missions(speed=(0.0, 5.0)), "speed"),
-        (lambda: mst.rover_missions(speed=(1.0, 50.0)), "speed"),
-        (lambda: mst.rover_missions(turn_angle=(0.0, 0.0)), "turn_angle"),
+        (lambda: px4st.waypoints(distance=(-1.0, 10.0)), "distance"),
+        (lambda: px4st.waypoints(altitude=(50.0, 10.0)), "altitude"),
+        (lambda: px4st.missions(count=(0, 3)), "count"),
+        (lambda: rover_st.missions(speed=(0.0, 5.0)), "speed"),
+        (lambda: rover_st.missions(speed=(1.0, 50.0)), "speed"),
+        (lambda: rover_st.missions(turn_angle=(0.0, 0.0)), "turn_angle"),
+        (lambda: rover_st.sensor_noise(scale=(2.0, 1.0)), "scale"),
+        (lambda: rover_st.world_configs(iterations=(0, 10)), "iterations"),
         (lambda: mst.noise_levels(-1.0), "noise"),
         (lambda: mst.fidelities(["ultra"]), "levels"),
     ],
 )
-def test_other_bounds(call: object, field: str) -> None:
+def test_other_bounds(call: Callable[[], object], field: str) -> None:
     with pytest.raises(mcs.ConfigurationError) as info:
-        call()  # type: ignore[operator]
+        call()
     assert info.value.field == field
 
 
-def test_world_configs_shrink_towards_the_default_world() -> None:
-    assert find(mst.world_configs(), lambda c: True) == WorldConfig()
-    # Needing a small step keeps the default integrator, solver and iterations.
-    small = find(mst.world_configs(), lambda c: c.timestep < 0.001)
-    assert (small.integrator, small.solver, small.iterations) == ("implicitfast", "Newton", 100)
-    # Outside the default's range it shrinks to the cheapest: largest step, fewest iterations.
-    cheap = find(mst.world_configs(timestep=(0.004, 0.008), iterations=(5, 50)), lambda c: True)
-    assert (cheap.timestep, cheap.iterations) == (0.008, 5)
+def test_world_configs_reach_the_default_world_and_the_cheapest_bounds() -> None:
+    # What the search may land on, not how Hypothesis gets there: the default world is among
+    # the draws, and outside the default's range so are the cheapest settings.
+    assert find(mst.world_configs(), lambda c: c == WorldConfig()) == WorldConfig()
+    cheap = find(
+        mst.world_configs(timestep=(0.004, 0.008), iterations=(5, 50)),
+        lambda c: (c.timestep, c.iterations) == (0.008, 5),
+    )
+    assert (cheap.integrator, cheap.solver) in {(i, s) for i in INTEGRATORS for s in SOLVERS}
 
 
 @given(config=mst.world_configs(timestep=(0.001, 0.005), iterations=(10, 20)))
@@ -70,31 +80,28 @@ def test_world_configs_respect_their_bounds(config: WorldConfig) -> None:
     assert 10 <= config.iterations <= 20
 
 
-def test_waypoints_shrink_to_one_above_home_at_the_lowest_altitude() -> None:
-    home = (47.0, 8.0, 400.0)
-    assert find(mst.geofence_waypoints(home, altitude=(25.0, 50.0)), lambda w: True) == [
-        (47.0, 8.0, 25.0)
-    ]
+def test_waypoints_reach_the_lowest_altitude() -> None:
+    points = px4st.waypoints(Home(47.0, 8.0, 400.0), altitude=(25.0, 50.0))
+    assert find(points, lambda w: w.alt == 25.0).alt == 25.0
 
 
-@given(mission=mst.geofence_waypoints((47.0, 8.0, 400.0), radius=100.0, count=(1, 3)))
-def test_waypoints_stay_inside_the_geofence(mission: list[tuple[float, float, float]]) -> None:
-    from multicosim.mujoco import geodetic_to_local
-
-    assert 1 <= len(mission) <= 3
-    for lat, lon, alt in mission:
-        east, north, _ = geodetic_to_local((47.0, 8.0, 0.0), lat, lon, 0.0)
-        assert math.hypot(east, north) <= 100.0 + 1e-6
-        assert 10.0 <= alt <= 50.0
+@given(config=px4st.missions(Home(47.0, 8.0, 400.0), count=(1, 3), distance=(0.0, 100.0)))
+def test_waypoints_stay_within_their_distance(config: Configuration) -> None:
+    assert 1 <= len(config.mission) <= 3
+    for waypoint in config.mission:
+        north, east = LocalProjection(47.0, 8.0).project(waypoint.lat, waypoint.lon)
+        assert math.hypot(east, north) <= 100.0 + 0.05  # the coordinates are rounded
+        assert 5.0 <= waypoint.alt <= 50.0
 
 
-def test_rover_missions_shrink_towards_a_simple_mission() -> None:
+def test_rover_missions_noise_and_fidelities_reach_their_simplest_values() -> None:
     from multicosim.rover import Mission
 
-    simple = find(mst.rover_missions(), lambda m: True)
-    assert simple == Mission(speed=1.0, wait=0.0)
-    assert find(mst.noise_levels(0.5), lambda n: True) == 0.0
-    assert find(mst.fidelities(), lambda f: True) == "low"
+    simple = find(rover_st.missions(speed=(1.0, 2.0)), lambda m: m.wait == 0.0 and m.speed == 1.0)
+    assert isinstance(simple, Mission)
+    assert find(mst.noise_levels(0.5), lambda n: n == 0.0) == 0.0
+    for level in FIDELITIES:
+        assert find(mst.fidelities(), functools.partial(operator.eq, level)) == level
 
 
 def test_target_robustness_outside_a_test_just_returns_it() -> None:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import pytest
 from falsify_cart import PIT, run
@@ -69,7 +70,7 @@ def test_the_papers_appendix_with_staliro_objects() -> None:
 
     mymodel = mtaliro.model(simulate, fidelity="low")
     spec = staliro.specifications.rtamt.parse_dense("always alt > 0.0")
-    opt = staliro.optimizers.UniformRandom()
+    opt: Any = staliro.optimizers.UniformRandom()
     options = staliro.TestOptions(
         static_inputs={
             "iters": (1, 100),

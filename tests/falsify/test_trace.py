@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import pytest
 from falsify_cart import PIT, CartScenario
@@ -150,7 +151,7 @@ class Scalar:
 
 def test_non_object_messages_are_wrapped(tmp_path: Path) -> None:
     simulator = mcs.ProcessSimulator()
-    simulator.add(mcs.ParticipantComponent(Scalar, name="scalar"))
+    simulator.add(mcs.InProcessComponent(Scalar, name="scalar"))
     simulation = simulator.start()
     try:
         recorder = Recorder().attach(simulation)
@@ -213,7 +214,7 @@ def test_plot_command(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> Non
 
     # A valid MCAP file that multicosim did not write: a clear error, no blank picture.
     with open(tmp_path / "foreign.mcap", "wb") as stream:
-        writer = Writer(stream)
+        writer: Any = Writer(stream)
         writer.start(profile="", library="another tool")
         schema = writer.register_schema("point", "jsonschema", b'{"type": "object"}')
         channel = writer.register_channel("/points", "json", schema)
@@ -251,7 +252,7 @@ def test_attach_needs_a_simulation_with_a_clock() -> None:
 def test_cart_participant_is_recorded_from_construction_on() -> None:
     # A recorder attached right after start sees the participant's first publication.
     simulator = mcs.ProcessSimulator()
-    simulator.add(mcs.ParticipantComponent(Cart, name="cart"))
+    simulator.add(mcs.InProcessComponent(Cart, name="cart"))
     simulation = simulator.start()
     try:
         recorder = Recorder().attach(simulation)

@@ -12,6 +12,7 @@ import msgspec
 import pytest
 
 import multicosim as mcs
+from multicosim.geo import Home
 from multicosim.mujoco import (
     DEFAULT_HOME,
     INTEGRATORS,
@@ -83,7 +84,7 @@ def test_world_config_defaults_and_variants() -> None:
 
 def test_world_config_round_trips_through_json() -> None:
     config = WorldConfig(
-        timestep=0.001, solver="PGS", sensor_topics={"imu": "raw/imu"}, home=(10.0, 20.0, 5.0)
+        timestep=0.001, solver="PGS", sensor_topics={"imu": "raw/imu"}, home=Home(10.0, 20.0, 5.0)
     )
     decoded = msgspec.json.decode(msgspec.json.encode(config), type=WorldConfig)
     assert decoded == config
@@ -199,9 +200,9 @@ def _run(
         {n: (config or RoverWorldConfig()).world.topic(n, t) for n, t in SENSOR_TOPICS.items()}
     )
     simulator = mcs.ProcessSimulator(seed=seed)
-    simulator.add(mcs.ParticipantComponent(lambda: rover_world(config), name="world"))
-    simulator.add(mcs.ParticipantComponent(lambda: Commander(command), name="commander"))
-    simulator.add(mcs.ParticipantComponent(lambda: recorder, name="recorder"))
+    simulator.add(mcs.InProcessComponent(lambda: rover_world(config), name="world"))
+    simulator.add(mcs.InProcessComponent(lambda: Commander(command), name="commander"))
+    simulator.add(mcs.InProcessComponent(lambda: recorder, name="recorder"))
     with simulator.start() as simulation:
         simulation.advance(duration)
     return recorder
@@ -291,11 +292,11 @@ def test_world_runs_as_a_process(no_leaks: None) -> None:
         )
     )
     simulator.add(
-        mcs.ParticipantComponent(
+        mcs.InProcessComponent(
             lambda: Commander(Command(speed=1.5, steering=0.0)), name="commander"
         )
     )
-    simulator.add(mcs.ParticipantComponent(lambda: recorder, name="recorder"))
+    simulator.add(mcs.InProcessComponent(lambda: recorder, name="recorder"))
     with simulator.start() as simulation:
         simulation.advance(2.0)
     positions = recorder.log["position"]

@@ -78,9 +78,9 @@ def env(pid_file: str | os.PathLike[str] | None = None) -> dict[str, str]:
 
 def echo_component(
     name: str = "echo", pid_file: str | os.PathLike[str] | None = None
-) -> mcs.FirmwareProcessComponent[Req, Rep]:
+) -> mcs.ProcessFirmwareComponent[Req, Rep]:
     """The ``echo`` firmware in its own process, on a free port."""
-    return mcs.FirmwareProcessComponent(
+    return mcs.ProcessFirmwareComponent(
         "python -m multicosim serve mcs_programs:echo --port {port}",
         name=name,
         env=env(pid_file),
@@ -90,9 +90,9 @@ def echo_component(
     )
 
 
-def stepper_component(name: str = "stepper") -> mcs.FirmwareProcessComponent[Req, Rep]:
+def stepper_component(name: str = "stepper") -> mcs.ProcessFirmwareComponent[Req, Rep]:
     """The ``stepper`` firmware in its own process, on a free port."""
-    return mcs.FirmwareProcessComponent(
+    return mcs.ProcessFirmwareComponent(
         "python -m multicosim serve mcs_programs:stepper --port {port}",
         name=name,
         env=env(),

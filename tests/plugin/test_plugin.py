@@ -14,7 +14,8 @@ import pytest
 from mcs_programs import process_gone
 from plugin_helpers import write_ini
 
-from pytest_multicosim.plugin import BACKENDS, FIDELITY_LEVELS, KEEP_TRACES
+from multicosim._fidelity import FIDELITIES
+from pytest_multicosim.plugin import BACKENDS, KEEP_TRACES
 
 # -- options and their ini twins ------------------------------------------------------------
 
@@ -174,7 +175,7 @@ def test_allowed_values_match_the_help(pytester: pytest.Pytester) -> None:
     for name in ("mcs_fidelity", "mcs_backend", "mcs_seed", "mcs_artifacts", "mcs_keep_traces"):
         result.stdout.fnmatch_lines([f"  {name} (string)*"])
     text = result.stdout.str()
-    assert all(level in text for level in FIDELITY_LEVELS + BACKENDS + KEEP_TRACES)
+    assert all(level in text for level in FIDELITIES + BACKENDS + KEEP_TRACES)
 
 
 def test_report_header(pytester: pytest.Pytester) -> None:
@@ -672,7 +673,7 @@ def test_ctrl_c_during_send(
             node = mcs_simulator.start().get(node_id)
             Path("pids.tmp").write_text(str(node.send(mcs_programs.Req(n=1)).pid))
             Path("pids.tmp").rename("pids")
-            node.send(mcs_programs.Req(n=2, stall=60.0))
+            node.send(mcs_programs.Req(n=2, stall=3600.0))
         """
     )
     child = subprocess.Popen(
@@ -690,10 +691,9 @@ def test_ctrl_c_during_send(
         reaper.extend(pids)
         assert len(pids) == 1, "the test did not reach its long send"
         time.sleep(0.3)  # let it enter the long send
-        sent = time.monotonic()
         child.send_signal(signal.SIGINT)
-        output, _ = child.communicate(timeout=30)
-        assert time.monotonic() - sent < 10  # it did not wait for the 60 s stall
+        # The reply is an hour away: a run that ends at all was interrupted in the send.
+        output, _ = child.communicate(timeout=300)
     finally:
         if child.poll() is None:
             child.kill()
@@ -727,10 +727,9 @@ def test_parallel(mcs_simulator, n):
     record = {"worker": worker, "endpoint": node.endpoint, "pid": pid, "n": n}
     with open(RECORDS, "a") as f:
         f.write(json.dumps(record) + "\\n")
-    # Wait until both workers have a simulation running, so the runs really overlap.
-    deadline = time.monotonic() + 20
+    # Wait until both workers have a simulation running, so the runs really overlap (the
+    # subprocess's timeout ends a run whose other worker never starts one).
     while len({json.loads(r)["worker"] for r in RECORDS.read_text().splitlines()}) < 2:
-        assert time.monotonic() < deadline, "the other worker never started a simulation"
         time.sleep(0.02)
     assert node.send(mcs_programs.Req(n=n + 100)).n == n + 100
 """
@@ -741,7 +740,7 @@ def test_xdist_parallel_simulations(
     pytester: pytest.Pytester, reaper: list[int], isolated_runs: Path
 ) -> None:
     pytester.makepyfile(test_parallel=PARALLEL)
-    result = pytester.runpytest_subprocess("-n", "2", timeout=90)
+    result = pytester.runpytest_subprocess("-n", "2", timeout=600)
     records = [json.loads(line) for line in (pytester.path / "records").read_text().splitlines()]
     reaper.extend(r["pid"] for r in records)
     result.assert_outcomes(passed=4)

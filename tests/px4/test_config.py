@@ -109,7 +109,7 @@ def test_pressure_altitude_round_trip() -> None:
         assert pressure_altitude(pressure_hpa(alt)) == pytest.approx(alt, abs=1e-6)
 
 
-@given(px4st.missions(max_distance=500.0))
+@given(px4st.missions(distance=(0.0, 500.0)))
 def test_generated_missions_are_inside_the_geofence(config: px4.Configuration) -> None:
     config.check_geofence(px4.Home(), px4.Geofence())
 
@@ -137,7 +137,7 @@ def test_public_names() -> None:
         "PX4Node",
         "PX4Simulation",
         "SITL",
-        "Sample",
+        "FlightSample",
         "Topics",
         "Waypoint",
         "WaypointReached",
@@ -154,11 +154,14 @@ def test_hil_helpers_read_and_write_both_wires() -> None:
     from multicosim.px4 import hil
 
     gps = hil.HilGps(1_000, 3, 473977420, 85455940, 488_000, 70, 100, 0, 0, 0, 0, 0, 12)
-    for wire in ("native", "mavlink"):
-        payload = hil.write(gps, wire)  # type: ignore[arg-type]
-        assert isinstance(payload, hil.payload_type(wire, hil.HilGps))  # type: ignore[arg-type]
+    wires: tuple[hil.Wire, ...] = ("native", "mavlink")
+    for wire in wires:
+        payload = hil.write(gps, wire)
+        assert isinstance(payload, hil.payload_type(wire, hil.HilGps))
         back = hil.read(payload, hil.HilGps)
         assert back == gps
         assert hil.read(payload, hil.HilSensor) is None
         moved = ms.structs.replace(back, lat=back.lat + 100)
-        assert hil.read(hil.write(moved, wire), hil.HilGps).lat == gps.lat + 100  # type: ignore[arg-type,union-attr]
+        moved_back = hil.read(hil.write(moved, wire), hil.HilGps)
+        assert moved_back is not None
+        assert moved_back.lat == gps.lat + 100

@@ -57,4 +57,4 @@ def test_decode_frames_survives_garbage() -> None:
     # Trailing garbage goes to pymavlink's stream parser (which reports BAD_DATA).
     decoded = decode_frames(new_link(0, 0), good + b"\x00\x01")
     assert decoded[0].get_type() == "HEARTBEAT"
-    assert all(m.get_type() != "HEARTBEAT" for m in decode_frames(new_link(0, 0), corrupt))
+    assert all(m.get_type() != "HEARTBEAT" for m in decode_frames(new_link(0, 0), bytes(corrupt)))

@@ -32,7 +32,7 @@ async def _poll(get, ok, timeout: float, what: str):  # type: ignore[no-untyped-
         await asyncio.sleep(0.1)
 
 
-async def _fly(port: int) -> dict[str, object]:
+async def _fly(port: int) -> dict[str, Any]:
     from mavsdk.asyncio import Autopilot, ComponentType, Configuration, Mavsdk
     from mavsdk.asyncio.plugins.action import ActionAsync
     from mavsdk.asyncio.plugins.mission import MissionAsync, MissionItem, MissionPlan
@@ -103,7 +103,7 @@ def test_mavsdk_flies_a_mission_on_our_autopilot(udp_port: int, sitl: Any, fidel
     assert out["progress"] == (2, 2)
     assert out["finished"] is True
     pos = out["position"]
-    lat, lon = out["last"]  # type: ignore[misc]
-    north, east = LocalProjection(lat, lon).project(pos.latitude_deg, pos.longitude_deg)  # type: ignore[attr-defined]
+    lat, lon = out["last"]
+    north, east = LocalProjection(lat, lon).project(pos.latitude_deg, pos.longitude_deg)
     assert (north**2 + east**2) ** 0.5 < 5.0, "the vehicle is not at the last waypoint"
-    assert abs(pos.relative_altitude_m - 10.0) < 2.0  # type: ignore[attr-defined]
+    assert abs(pos.relative_altitude_m - 10.0) < 2.0

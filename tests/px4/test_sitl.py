@@ -28,7 +28,7 @@ import multicosim as mcs
 import multicosim.px4 as px4
 from multicosim.geo import LocalProjection
 from multicosim.px4._config import world_topics
-from multicosim.px4._hil import Truth
+from multicosim.px4._hil import Truth, Wire
 from multicosim.px4._hilserver import HilTcpBridge
 from multicosim.px4._real import API_LOCAL_PORT, API_PORT, claim_instance
 from multicosim.px4._simulator import WorldComponent
@@ -169,9 +169,9 @@ def test_bridge_runs_the_world_in_lockstep_with_a_tcp_simulator_client(process: 
     topics = world_topics(world)
     sim = mcs.ProcessSimulator(seed=0)
     sim.add(WorldComponent(world, "medium", process=process))
-    wire = "mavlink" if process else "native"
+    wire: Wire = "mavlink" if process else "native"
     bridge_id = sim.add(
-        mcs.ParticipantComponent(
+        mcs.InProcessComponent(
             lambda: HilTcpBridge(topics, period=world.period, port=0, wire=wire), "hil"
         )
     )
@@ -186,7 +186,7 @@ def test_bridge_runs_the_world_in_lockstep_with_a_tcp_simulator_client(process: 
         def step(self, ctx: Any) -> None:
             truth.extend(self.sub.messages)
 
-    sim.add(mcs.ParticipantComponent(Recorder, "recorder"))
+    sim.add(mcs.InProcessComponent(Recorder, "recorder"))
     with sim.start() as simulation:
         bridge: HilTcpBridge = simulation.get(bridge_id).participant
         client = FakeSimulatorClient(bridge.port, throttle=0.7)
@@ -216,7 +216,7 @@ def test_bridge_drops_a_client_that_speaks_no_mavlink() -> None:
     sim = mcs.ProcessSimulator(seed=0)
     sim.add(WorldComponent(world, "medium", process=False))
     bridge_id = sim.add(
-        mcs.ParticipantComponent(
+        mcs.InProcessComponent(
             lambda: HilTcpBridge(world_topics(world), period=world.period, port=0, wire="native"),
             "hil",
         )
@@ -323,7 +323,7 @@ def test_real_px4_dying_mid_flight_is_reported_with_its_output(px4_sitl: RealPX4
             if ctx.time >= 15.0 and killer.get("pid"):
                 os.killpg(killer.pop("pid"), signal.SIGKILL)
 
-    simulator.add(mcs.ParticipantComponent(KillAt, "killer"))
+    simulator.add(mcs.InProcessComponent(KillAt, "killer"))
     with simulator.start() as simulation:
         killer["pid"] = simulation.firmware._autopilot.process.pid  # type: ignore[attr-defined]
         with pytest.raises(mcs.NodeCrashedError) as info:

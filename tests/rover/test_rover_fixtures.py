@@ -29,7 +29,7 @@ def test_simulator_takes_configuration_and_components(rover_simulator):
         period = 0.1
         def setup(self, ctx): pass
         def step(self, ctx): pass
-    rover_simulator.add(mcs.ParticipantComponent(Idle, name="idle"))
+    rover_simulator.add(mcs.InProcessComponent(Idle, name="idle"))
     assert rover_simulator.config.world.period == 0.05
     simulation = rover_simulator.start()
     assert simulation.controller.send(SHORT).completed

@@ -24,7 +24,7 @@ from multicosim.rover import (
     Observation,
     Position,
     RoverWorldConfig,
-    Sample,
+    SensedSample,
     SensorNoise,
     State,
     Trajectory,
@@ -84,7 +84,7 @@ def test_mission_is_validated_when_decoded() -> None:
 
 def test_trajectory_helpers() -> None:
     samples = [
-        Sample(time=t, x=t, y=0.0, z=0.25, heading=0.0, roll=0.0, speed=1.0, state=s)
+        SensedSample(time=t, x=t, y=0.0, z=0.25, heading=0.0, roll=0.0, speed=1.0, state=s)
         for t, s in [(0.0, "wait"), (0.1, "wait"), (0.2, "drive"), (0.3, "done")]
     ]
     trajectory = Trajectory(samples=samples, final_state="done", completed=True)
@@ -221,8 +221,8 @@ def _kinematic(command: Command, duration: float, noise: SensorNoise | None = No
             received["field"] = self.field.latest
 
     simulator = mcs.ProcessSimulator()
-    simulator.add(mcs.ParticipantComponent(lambda: world, name="world"))
-    simulator.add(mcs.ParticipantComponent(Probe, name="probe"))
+    simulator.add(mcs.InProcessComponent(lambda: world, name="world"))
+    simulator.add(mcs.InProcessComponent(Probe, name="probe"))
     with simulator.start() as simulation:
         simulation.advance(duration)
     return world, received

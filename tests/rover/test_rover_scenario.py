@@ -107,7 +107,7 @@ def test_abort_published_on_the_topic_stops_the_rover() -> None:
                 self.sent = True
 
     simulator = rover.Rover(fidelity="low")
-    simulator.add(mcs.ParticipantComponent(lambda: Operator(when=2.0), name="operator"))
+    simulator.add(mcs.InProcessComponent(lambda: Operator(when=2.0), name="operator"))
     with simulator.start() as simulation:
         trajectory = simulation.controller.send(SHORT)
         # A later mission is not aborted by the stale message.
@@ -144,9 +144,9 @@ def test_compass_attack_changes_the_turn() -> None:
         rover.default_world("low"), sensor_topics={"magnetometer": "attack/magnetometer"}
     )
     honest = rover.Rover(fidelity="low", world=world)
-    honest.add(mcs.ParticipantComponent(lambda: _Relay(), name="relay"))
+    honest.add(mcs.InProcessComponent(lambda: _Relay(), name="relay"))
     attacked = rover.Rover(fidelity="low", world=world)
-    attacked.add(mcs.ParticipantComponent(CompassAttack, name="attack"))
+    attacked.add(mcs.InProcessComponent(CompassAttack, name="attack"))
     with honest.start() as simulation:
         clean = simulation.controller.send(SHORT)
     with attacked.start() as simulation:
@@ -182,7 +182,7 @@ def test_controller_without_a_world_fails_clearly() -> None:
 
 
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(missions(max_speed=4.0))
+@given(missions(speed=(0.5, 4.0)))
 def test_any_mission_ends_near_its_plan_at_low_fidelity(mission: Mission) -> None:
     with rover.Rover(fidelity="low").start() as simulation:
         trajectory = simulation.controller.send(mission)
@@ -210,7 +210,7 @@ def test_strategies_draw_valid_configurations(world: WorldConfig, noise: rover.S
 
 
 @settings(max_examples=3, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(world_configs(min_timestep=0.001))
+@given(world_configs(timestep=(0.001, 0.005)))
 def test_drawn_world_configurations_drive_the_mission(world: WorldConfig) -> None:
     mission = Mission(speed=3.0, wait=0.0, distance=3.0, final_distance=2.0)
     with rover.Rover(fidelity="medium", world=world).start() as simulation:
@@ -243,7 +243,7 @@ def test_listing_2_shape(no_leaks: None) -> None:
         mcs.ProcessComponent("python -m multicosim participant multicosim.mujoco:rover_world")
     )
     node_id = simulator.add(
-        mcs.FirmwareProcessComponent(
+        mcs.ProcessFirmwareComponent(
             "python -m multicosim serve multicosim.rover:controller --port {port}",
             msgtype=Mission,
             replytype=Trajectory,

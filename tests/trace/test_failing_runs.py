@@ -25,6 +25,7 @@ import pytest
 from mcap.reader import make_reader
 from pymavlink import mavutil
 
+from multicosim.geo import EARTH_RADIUS
 from multicosim.trace import read_trace
 from multicosim.trace._plot import figure
 
@@ -196,9 +197,8 @@ def test_the_trace_of_a_failing_fixture_test_is_valid_foxglove_data(
 
 def equirectangular(lat: float, lon: float) -> tuple[float, float]:
     """East and north (m) of a point from HOME: a projection of our own, good to a few cm here."""
-    radius = 6_371_000.0
-    north = math.radians(lat - HOME[0]) * radius
-    east = math.radians(lon - HOME[1]) * radius * math.cos(math.radians(HOME[0]))
+    north = math.radians(lat - HOME[0]) * EARTH_RADIUS
+    east = math.radians(lon - HOME[1]) * EARTH_RADIUS * math.cos(math.radians(HOME[0]))
     return east, north
 
 
@@ -213,7 +213,7 @@ def test_the_px4_plot_draws_east_right_north_up_with_the_plan_and_the_violation(
     fig = figure(trace)
     ax_path, _, ax_rob = fig.axes
     assert (ax_path.get_xlabel(), ax_path.get_ylabel()) == ("east (m)", "north (m)")
-    lines = {line.get_gid(): line for ax in fig.axes for line in ax.get_lines()}
+    lines: dict[object, Any] = {line.get_gid(): line for ax in fig.axes for line in ax.get_lines()}
 
     # The truth path is the world's truth: east on x, north on y.
     truth = [m.data for m in trace.topic("px4/truth")]
@@ -236,7 +236,8 @@ def test_the_px4_plot_draws_east_right_north_up_with_the_plan_and_the_violation(
     signal = lines["signal/true_alt"]
     assert list(signal.get_ydata()) == pytest.approx([s["true_alt"] for s in samples])
     first = next(s["time"] for s in samples if s["true_alt"] > 10.0)
-    marks = {line.get_label(): line.get_xdata()[0] for line in ax_rob.get_lines()}
+    rob_lines: list[Any] = ax_rob.get_lines()
+    marks = {line.get_label(): line.get_xdata()[0] for line in rob_lines}
     first_mark = next(x for label, x in marks.items() if label.startswith("first violation"))
     assert first_mark == pytest.approx(first)
     assert any(label.startswith("worst time") for label in marks)
@@ -248,7 +249,9 @@ def test_the_rover_plot_draws_the_worlds_position(
 ) -> None:
     path, _ = failing_run
     trace = read_trace(artifacts(path, f"test_rover_drives_backwards_{fidelity}") / "trace.mcap")
-    lines = {line.get_gid(): line for ax in figure(trace).axes for line in ax.get_lines()}
+    lines: dict[object, Any] = {
+        line.get_gid(): line for ax in figure(trace).axes for line in ax.get_lines()
+    }
     positions = [m.data for m in trace.topic("rover/position")]
     # What the world's position sensor published (noisy at medium): not called the truth.
     measured = lines["path/measured"]
@@ -313,7 +316,7 @@ def test_the_report_and_the_junit_xml_name_trace_and_replay(failing_run: tuple[P
     # Our frames are hidden: the traceback ends in the test, the verdict comes first.
     assert "multicosim/requirements.py" not in stdout
     assert stdout.count("verdict: ") == 4
-    assert "verdict: multicosim.requirements.RequirementViolation: requirement " in stdout
+    assert "verdict: multicosim.RequirementViolation: requirement " in stdout
     assert "first violated at t=" in stdout
     assert "open: Foxglove" in stdout
 

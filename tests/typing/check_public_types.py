@@ -22,7 +22,7 @@ class ModelComponent:
 
 
 def check_node_id_is_typed() -> None:
-    simulator = mcs.InProcessSimulator()
+    simulator = mcs.SelfContainedSimulator()
     node_id = simulator.add(ModelComponent())
     assert_type(node_id, mcs.NodeId[Model])
     simulation = simulator.start()
@@ -34,15 +34,15 @@ def check_node_id_is_typed() -> None:
 def check_process_components_are_typed() -> None:
     simulator = mcs.ProcessSimulator(seed=3)
     fw = simulator.add(
-        mcs.FirmwareProcessComponent(
+        mcs.ProcessFirmwareComponent(
             "python -m multicosim serve multicosim.testing:drive --port {port}",
             msgtype=testing.Drive,
             replytype=testing.DriveReport,
         )
     )
-    assert_type(fw, mcs.NodeId[mcs.FirmwareNode[testing.Drive, testing.DriveReport]])
+    assert_type(fw, mcs.NodeId[mcs.ProcessFirmwareNode[testing.Drive, testing.DriveReport]])
     inproc = simulator.add(mcs.InProcessFirmwareComponent(testing.drive))
-    world = simulator.add(mcs.ParticipantComponent(testing.Cart, name="cart"))
+    world = simulator.add(mcs.InProcessComponent(testing.Cart, name="cart"))
     with simulator.start() as simulation:
         report = simulation.get(fw).send(testing.Drive(speed=1.0, steps=2))
         assert_type(report, testing.DriveReport)
@@ -55,7 +55,7 @@ def check_process_components_are_typed() -> None:
 def check_protocols() -> None:
     node: mcs.CommunicationNode[float, list[float]] = Model()
     component: mcs.Component[None, Model] = ModelComponent()
-    simulator: mcs.Simulator[None] = mcs.InProcessSimulator()
+    simulator: mcs.Simulator[None] = mcs.SelfContainedSimulator()
     del node, component, simulator
 
 

@@ -1,0 +1,109 @@
+"""The exception tree: one root, every public error in the errors module, libraries mapped."""
+
+from __future__ import annotations
+
+import inspect
+import re
+
+import pytest
+import zmq
+
+import multicosim as mcs
+from multicosim import _errors
+from multicosim.requirements import Requirement
+
+
+def _public_exceptions() -> dict[str, type[BaseException]]:
+    return {
+        name: value
+        for name, value in vars(_errors).items()
+        if inspect.isclass(value) and issubclass(value, BaseException) and name in _errors.__all__
+    }
+
+
+def test_every_public_error_is_a_multicosim_error_exported_from_the_package() -> None:
+    errors = _public_exceptions()
+    assert len(errors) >= 18
+    for name, cls in errors.items():
+        assert issubclass(cls, mcs.MulticosimError), name
+        assert getattr(mcs, name) is cls, name
+
+
+def test_the_documented_tree_names_every_error_once() -> None:
+    doc = _errors.__doc__ or ""
+    drawn = re.findall(r"^    (?:[│ ]*[├└]── )?([A-Z]\w+)", doc, re.M)
+    assert sorted(drawn) == sorted(_public_exceptions())
+
+
+def test_errors_defined_elsewhere_are_the_same_classes() -> None:
+    import multicosim.campaign
+    import multicosim.docker
+    import multicosim.mujoco
+    import multicosim.requirements
+
+    assert multicosim.requirements.FormulaError is mcs.FormulaError
+    assert multicosim.requirements.RequirementViolation is mcs.RequirementViolation
+    assert multicosim.mujoco.PhysicsDivergedError is mcs.PhysicsDivergedError
+    assert multicosim.docker.EngineUnavailableError is mcs.EngineUnavailableError
+    assert multicosim.docker.ImageMissingError is mcs.ImageMissingError
+    assert multicosim.campaign.CampaignInterrupted is mcs.CampaignInterrupted
+
+
+def test_classic_bases_are_kept() -> None:
+    assert issubclass(mcs.CampaignInterrupted, KeyboardInterrupt)
+    assert issubclass(mcs.RequirementViolation, AssertionError)
+    assert issubclass(mcs.FormulaError, ValueError)
+    assert issubclass(mcs.ImageMissingError, mcs.NodeStartError)
+
+
+def test_a_zeromq_error_becomes_a_transport_error_naming_the_endpoint() -> None:
+    context = zmq.Context()
+    first, second = context.socket(zmq.ROUTER), context.socket(zmq.ROUTER)
+    try:
+        port = first.bind_to_random_port("tcp://127.0.0.1")
+        with pytest.raises(zmq.ZMQError) as caught:
+            second.bind(f"tcp://127.0.0.1:{port}")
+        error = _errors.translate(caught.value, name="probe")
+        assert isinstance(error, mcs.TransportError)
+        assert str(error).startswith("probe: ZeroMQ: ")
+    finally:
+        first.close(0)
+        second.close(0)
+        context.term()
+
+
+def test_a_taken_firmware_port_is_a_transport_error() -> None:
+    import threading
+
+    from multicosim import testing
+
+    context = zmq.Context()
+    holder = context.socket(zmq.ROUTER)
+    try:
+        port = holder.bind_to_random_port("tcp://127.0.0.1")
+        with pytest.raises(mcs.TransportError, match=f"tcp://127.0.0.1:{port}"):
+            mcs.serve(
+                testing.echo,
+                port=port,
+                host="127.0.0.1",
+                stop=threading.Event(),
+                environment=(None, "echo", 0),
+            )
+    finally:
+        holder.close(0)
+        context.term()
+
+
+def test_an_rtamt_parse_error_becomes_a_formula_error_with_its_place() -> None:
+    with pytest.raises(mcs.FormulaError) as caught:
+        Requirement("always (alt >= 0) and", semantics="dense").evaluate(
+            {"time": [0.0, 1.0], "alt": [1.0, 2.0]}
+        )
+    assert caught.value.field == "formula"
+    assert "column" in str(caught.value)
+
+
+def test_library_errors_of_unknown_origin_are_not_translated() -> None:
+    assert _errors.translate(OSError("disk full")) is None
+    error = mcs.TraceError("x")
+    assert _errors.translate(error) is error
