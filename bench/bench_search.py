@@ -8,21 +8,28 @@ under a barometer spoof). For each problem:
 2. for each optimizer and each seed: one search at low fidelity with the problem's budget;
    the median number of simulations to the first violation (a search that found none counts
    as budget + 1) and the share of searches that found one;
-3. multi-fidelity (``--mf``): the default optimizer searches at low and confirms at medium,
-   against the same optimizer searching at medium alone, seed by seed: the wall time to a
-   counterexample that medium fidelity confirms, and the transfer rate.
+3. multi-fidelity (``--mf-seeds``): the default optimizer searches at low and confirms at
+   medium, against the same optimizer searching at medium alone, seed by seed (the two in
+   turns, so that a change in the machine's load falls on both): the wall time to a
+   counterexample that medium fidelity confirms, and the transfer rate;
+4. real PX4 (``--real-seeds``, where ``--px4-binary`` or ``MCS_PX4_BINARY`` names PX4's SITL
+   ``bin/px4``): the PX4 problems searched at low, confirmed at medium and on real PX4: the
+   transfer rate per level.
 
 Usage: ``python bench/bench_search.py [--seeds N] [--problems a,b] [--optimizers a,b]
-[--mf-seeds N] [--quick] [--readme]``. Writes ``bench/results/search.json``; ``--readme``
-rewrites the README's search table (between ``<!-- search:start -->`` and
-``<!-- search:end -->``) from it. Simulations are deterministic for a seed, so the counts
-do not depend on the machine; wall times do (measured on a shared 2-core machine).
+[--mf-seeds N] [--real-seeds N] [--quick] [--readme]``. Writes
+``bench/results/search.json``; ``--readme`` rewrites the README's search table (between
+``<!-- search:start -->`` and ``<!-- search:end -->``) from it. Simulations with the built-in
+autopilot are deterministic for a seed, so the counts do not depend on the machine; wall
+times do (measured on a shared 2-core machine), and so, a little, do real PX4's (its modules
+are threads).
 """
 
 from __future__ import annotations
 
 import argparse
 import math
+import os
 import statistics
 import sys
 import time
@@ -35,14 +42,16 @@ sys.path.insert(0, str(ROOT / "scenarios"))
 
 from search_problems import PROBLEMS, Problem
 
+import multicosim.px4 as px4
 from multicosim.campaign import run_campaign
 from multicosim.falsify import (
-    DEFAULT_OPTIMIZER,
     OPTIMIZERS,
     Choice,
     HypothesisSearch,
     Integer,
     Real,
+    default_optimizer,
+    falsify,
     first_violation_statistics,
 )
 
@@ -114,12 +123,26 @@ def searches(problem: Problem, optimizer: str, seeds: int) -> dict[str, Any]:
     }
 
 
+def warm_up() -> None:
+    """Load what the default optimizer loads (torch for ``gp``) before anything is timed."""
+
+    def simulate(sample: Any, fidelity: str, seed: int) -> dict[str, list[float]]:
+        return {"time": [0.0], "x": [sample["x"]]}
+
+    falsify(simulate, "always (x >= 0)", {"x": (0.0, 1.0)}, budget=12, levels=("low",))
+
+
 def multi_fidelity(problem: Problem, seeds: int, budget: int) -> dict[str, Any]:
     """Low then medium, against medium alone: wall time to a medium-confirmed violation."""
     rows = []
     for seed in range(seeds):
-        both = problem.search(seed=seed, levels=("low", "medium"))
-        alone = problem.search(seed=seed, levels=("medium",), budget=budget)
+        # In turns: the later of the two runs on a warmer cache, or a machine less loaded.
+        if seed % 2:
+            alone = problem.search(seed=seed, levels=("medium",), budget=budget)
+            both = problem.search(seed=seed, levels=("low", "medium"))
+        else:
+            both = problem.search(seed=seed, levels=("low", "medium"))
+            alone = problem.search(seed=seed, levels=("medium",), budget=budget)
         medium = both.stats["medium"]
         rows.append(
             {
@@ -127,6 +150,7 @@ def multi_fidelity(problem: Problem, seeds: int, budget: int) -> dict[str, Any]:
                 "multi_found": both.falsified,
                 "multi_wall_s": both.wall_time,
                 "multi_low_simulations": both.simulations,
+                "multi_low_wall_s": both.stats["low"].wall_time,
                 "multi_medium_runs": medium.runs,
                 "tried": medium.tried,
                 "transferred": medium.transferred,
@@ -135,6 +159,12 @@ def multi_fidelity(problem: Problem, seeds: int, budget: int) -> dict[str, Any]:
                 "alone_simulations": alone.simulations,
                 "alone_budget": budget,
             }
+        )
+        print(
+            f"  seed {seed}: low+medium {both.wall_time:.1f} s ({both.simulations} low, "
+            f"{medium.runs} medium), medium alone {alone.wall_time:.1f} s "
+            f"({alone.simulations})",
+            flush=True,
         )
     tried = sum(r["tried"] for r in rows)
     multi = statistics.median(r["multi_wall_s"] for r in rows)
@@ -147,9 +177,71 @@ def multi_fidelity(problem: Problem, seeds: int, budget: int) -> dict[str, Any]:
         "multi_wall_median_s": multi,
         "alone_wall_median_s": alone,
         "speedup": alone / multi if multi > 0 else None,
+        # Per seed, then the median: how many times less wall time, searched side by side.
+        "speedup_median": statistics.median(
+            r["alone_wall_s"] / r["multi_wall_s"] for r in rows if r["multi_wall_s"] > 0
+        ),
+        "multi_low_simulations_median": statistics.median(r["multi_low_simulations"] for r in rows),
+        "alone_simulations_median": statistics.median(r["alone_simulations"] for r in rows),
         "transfer_rate": sum(r["transferred"] for r in rows) / tried if tried else None,
+        "transferred": sum(r["transferred"] for r in rows),
+        "tried": tried,
         "per_seed": rows,
     }
+
+
+def real_px4(problem: Problem, seeds: int, firmware: px4.SITL) -> dict[str, Any]:
+    """Search at low, confirm at medium and on real PX4: the transfer rate per level."""
+    rows = []
+    for seed in range(seeds):
+        result = problem.search(seed=seed, levels=problem.levels(firmware))
+        stats = result.stats
+        rows.append(
+            {
+                "seed": seed,
+                "found": result.falsified,
+                "low_simulations": result.simulations,
+                "wall_s": result.wall_time,
+                "levels": {
+                    name: {
+                        "runs": s.runs,
+                        "tried": s.tried,
+                        "transferred": s.transferred,
+                        "wall_s": s.wall_time,
+                    }
+                    for name, s in stats.items()
+                },
+                "real_robustness": [
+                    t.robustness for t in result.trials if t.level == px4.SITL_LEVEL
+                ],
+            }
+        )
+        rates = {k: f"{v['transferred']}/{v['tried']}" for k, v in rows[-1]["levels"].items()}
+        print(f"  seed {seed}: {rates}, {result.wall_time:.0f} s", flush=True)
+    levels: dict[str, Any] = {}
+    for name in rows[0]["levels"]:
+        runs = sum(r["levels"][name]["runs"] for r in rows)
+        tried = sum(r["levels"][name]["tried"] for r in rows)
+        transferred = sum(r["levels"][name]["transferred"] for r in rows)
+        wall = sum(r["levels"][name]["wall_s"] for r in rows)
+        levels[name] = {
+            "runs": runs,
+            "tried": tried,
+            "transferred": transferred,
+            "transfer_rate": transferred / tried if tried else None,
+            "mean_wall_s": wall / runs if runs else None,
+        }
+    return {
+        "seeds": seeds,
+        "firmware": "PX4 SITL",
+        "found": sum(r["found"] for r in rows),
+        "levels": levels,
+        "per_seed": rows,
+    }
+
+
+def _share(transferred: int, tried: int) -> str:
+    return "-" if not tried else f"{transferred}/{tried} ({100 * transferred / tried:.0f} %)"
 
 
 def table(data: dict[str, Any]) -> str:
@@ -177,27 +269,52 @@ def table(data: dict[str, Any]) -> str:
         ratio = p.get("random_over_default")
         lines.append(
             f"| {name} | {100 * rate['rate']:.1f} % ({rate['violations']}/{rate['samples']}) "
-            f"| {p['budget']} | " + " | ".join(cells) + f" | {ratio:.1f}x |"
-            if ratio is not None
-            else " | - |"
+            f"| {p['budget']} | "
+            + " | ".join(cells)
+            + (f" | {ratio:.1f}x |" if ratio is not None else " | - |")
         )
     mf = data.get("multi_fidelity") or {}
     if mf:
         lines += [
             "",
             f"Multi-fidelity, `{default}` searching at low and confirming at medium, against "
-            "the same search at medium alone (median wall time to a counterexample medium "
-            "fidelity confirms):",
+            "the same search at medium alone (budget "
+            f"{next(iter(mf.values()))['medium_budget']}), seed by seed: median wall time to a "
+            "counterexample medium fidelity confirms, median simulations (at low; at medium "
+            "alone), the speed-up (ratio of the medians) and the share of violations found at "
+            "low that medium confirmed:",
             "",
-            "| problem | seeds | low + medium | medium alone | speed-up | transfer rate |",
-            "|---|---|---|---|---|---|",
+            "| problem | seeds | low + medium | medium alone | simulations | speed-up "
+            "| transfer low to medium |",
+            "|---|---|---|---|---|---|---|",
         ]
         for name, m in mf.items():
-            rate = "-" if m["transfer_rate"] is None else f"{100 * m['transfer_rate']:.0f} %"
             lines.append(
                 f"| {name} | {m['seeds']} | {m['multi_wall_median_s']:.1f} s "
                 f"({m['multi_found']}/{m['seeds']} found) | {m['alone_wall_median_s']:.1f} s "
-                f"({m['alone_found']}/{m['seeds']} found) | {m['speedup']:.1f}x | {rate} |"
+                f"({m['alone_found']}/{m['seeds']} found) | "
+                f"{m['multi_low_simulations_median']:g}; {m['alone_simulations_median']:g} | "
+                f"{m['speedup']:.1f}x | {_share(m['transferred'], m['tried'])} |"
+            )
+    real = data.get("real_px4") or {}
+    if real:
+        lines += [
+            "",
+            f"Real PX4 SITL as the top level (`px4.sitl_level`): `{default}` searching at low, "
+            "confirming at medium (built-in autopilot) and on real PX4 (v1.15.4 on the same "
+            "MuJoCo world); per level, the violations from below that held there:",
+            "",
+            "| problem | seeds | confirmed on real PX4 | medium | real PX4 | wall time per real "
+            "PX4 run |",
+            "|---|---|---|---|---|---|",
+        ]
+        for name, r in real.items():
+            medium, top = r["levels"]["medium"], r["levels"][px4.SITL_LEVEL]
+            per_run = "-" if top["mean_wall_s"] is None else f"{top['mean_wall_s']:.0f} s"
+            lines.append(
+                f"| {name} | {r['seeds']} | {r['found']}/{r['seeds']} "
+                f"| {_share(medium['transferred'], medium['tried'])} "
+                f"| {_share(top['transferred'], top['tried'])} | {per_run} |"
             )
     lines.append(END)
     return "\n".join(lines)
@@ -217,15 +334,17 @@ def save(
     seeds: int,
     problems: dict[str, Any],
     mf: dict[str, Any],
+    real: dict[str, Any],
     output: Path | None,
 ) -> Path:
     """Write what has been measured so far (a long run keeps its finished problems)."""
     data = {
-        "default": DEFAULT_OPTIMIZER,
+        "default": default_optimizer(),
         "optimizers": optimizers,
         "seeds": seeds,
         "problems": problems,
         "multi_fidelity": mf,
+        "real_px4": real,
     }
     return write_result("search", data, output)
 
@@ -236,12 +355,21 @@ def main() -> int:
     parser.add_argument("--problems", default=",".join(PROBLEMS))
     parser.add_argument("--optimizers", default=",".join(OPTIMIZERS))
     parser.add_argument("--rate-samples", type=int, default=RATE_SAMPLES)
-    parser.add_argument("--mf-seeds", type=int, default=5, help="multi-fidelity seeds (0: skip)")
-    parser.add_argument("--mf-problems", default="rover-turn,px4-geofence")
-    parser.add_argument(
-        "--merge", action="store_true", help="keep the other problems of search.json"
-    )
+    parser.add_argument("--mf-seeds", type=int, default=10, help="multi-fidelity seeds (0: skip)")
+    parser.add_argument("--mf-problems", default=",".join(PROBLEMS))
     parser.add_argument("--mf-budget", type=int, default=60, help="medium-alone budget")
+    parser.add_argument(
+        "--px4-binary",
+        default=os.environ.get("MCS_PX4_BINARY"),
+        help="real PX4 SITL's bin/px4 (default: MCS_PX4_BINARY)",
+    )
+    parser.add_argument("--real-seeds", type=int, default=5, help="real-PX4 seeds (0: skip)")
+    parser.add_argument(
+        "--real-problems", default=",".join(n for n, p in PROBLEMS.items() if p.flies_px4)
+    )
+    parser.add_argument(
+        "--merge", action="store_true", help="keep what search.json has of the rest"
+    )
     parser.add_argument("--quick", action="store_true", help="5 seeds, 2 problems")
     parser.add_argument("--readme", action="store_true", help="rewrite the README table")
     parser.add_argument("--from-results", action="store_true", help="only rewrite the table")
@@ -255,11 +383,14 @@ def main() -> int:
         update_readme(table(json.loads((RESULTS / "search.json").read_text())))
         return 0
     if args.quick:
-        args.seeds, args.rate_samples, args.mf_seeds = 5, 300, 1
+        args.seeds, args.rate_samples, args.mf_seeds, args.real_seeds = 5, 300, 1, 1
         args.problems = args.mf_problems = "rover-lane,rover-turn"
+        args.real_problems = "px4-geofence"
+    firmware = px4.SITL(binary=args.px4_binary) if args.px4_binary and args.real_seeds else None
     optimizers = args.optimizers.split(",")
     problems: dict[str, Any] = {}
     mf: dict[str, Any] = {}
+    real: dict[str, Any] = {}
     if args.merge:
         import json
 
@@ -267,6 +398,9 @@ def main() -> int:
 
         previous = json.loads((RESULTS / "search.json").read_text())
         problems, mf = previous["problems"], previous["multi_fidelity"]
+        real = previous.get("real_px4", {})
+    default = default_optimizer()
+    warm_up()
     for name in filter(None, args.problems.split(",")):
         problem = PROBLEMS[name]
         entry: dict[str, Any] = {"description": problem.description, "budget": problem.budget}
@@ -282,24 +416,29 @@ def main() -> int:
                 flush=True,
             )
         ops = entry["optimizers"]
-        if "random" in ops and DEFAULT_OPTIMIZER in ops:
-            entry["random_over_default"] = (
-                ops["random"]["median"] / ops[DEFAULT_OPTIMIZER]["median"]
-            )
+        if "random" in ops and default in ops:
+            entry["random_over_default"] = ops["random"]["median"] / ops[default]["median"]
         problems[name] = entry
-        save(optimizers, args.seeds, problems, mf, args.output)
+        save(optimizers, args.seeds, problems, mf, real, args.output)
     if args.mf_seeds:
         for name in filter(None, args.mf_problems.split(",")):
+            print(f"multi-fidelity {name}:", flush=True)
             mf[name] = multi_fidelity(PROBLEMS[name], args.mf_seeds, args.mf_budget)
             m = mf[name]
             print(
-                f"multi-fidelity {name}: {m['multi_wall_median_s']:.1f} s vs "
-                f"{m['alone_wall_median_s']:.1f} s at medium alone ({m['speedup']:.1f}x), "
-                f"transfer rate {m['transfer_rate']}",
+                f"  {m['multi_wall_median_s']:.1f} s vs {m['alone_wall_median_s']:.1f} s at "
+                f"medium alone ({m['speedup']:.1f}x), transfer {m['transferred']}/{m['tried']}",
                 flush=True,
             )
-            save(optimizers, args.seeds, problems, mf, args.output)
-    out = save(optimizers, args.seeds, problems, mf, args.output)
+            save(optimizers, args.seeds, problems, mf, real, args.output)
+    if firmware is not None:
+        for name in filter(None, args.real_problems.split(",")):
+            print(f"real PX4 {name}:", flush=True)
+            real[name] = real_px4(PROBLEMS[name], args.real_seeds, firmware)
+            save(optimizers, args.seeds, problems, mf, real, args.output)
+    elif args.real_seeds:
+        print("no real PX4 (give --px4-binary or MCS_PX4_BINARY): its level is not measured")
+    out = save(optimizers, args.seeds, problems, mf, real, args.output)
     import json
 
     section = table(json.loads(out.read_text()))
