@@ -8,13 +8,15 @@ under a barometer spoof). For each problem:
 2. for each optimizer and each seed: one search at low fidelity with the problem's budget;
    the median number of simulations to the first violation (a search that found none counts
    as budget + 1) and the share of searches that found one;
-3. multi-fidelity (``--mf-seeds``): the default optimizer searches at low and confirms at
-   medium, against the same optimizer searching at medium alone, seed by seed (the two in
-   turns, so that a change in the machine's load falls on both): the wall time to a
-   counterexample that medium fidelity confirms, and the transfer rate;
+3. multi-fidelity (``--mf-seeds``): a search at low (with the default optimizer and with
+   ``tpe``, ``--mf-low``) that confirms at medium, against the default optimizer searching
+   at medium alone, seed by seed (in turns, so that a change in the machine's load falls on
+   all): the wall time to a counterexample that medium fidelity confirms, and the transfer
+   rate;
 4. real PX4 (``--real-seeds``, where ``--px4-binary`` or ``MCS_PX4_BINARY`` names PX4's SITL
    ``bin/px4``): the PX4 problems searched at low, confirmed at medium and on real PX4: the
-   transfer rate per level.
+   transfer rate per level, and the wall time against flying as many simulations on real
+   PX4 alone.
 
 Usage: ``python bench/bench_search.py [--seeds N] [--problems a,b] [--optimizers a,b]
 [--mf-seeds N] [--real-seeds N] [--quick] [--readme]``. Writes
@@ -132,62 +134,92 @@ def warm_up() -> None:
     falsify(simulate, "always (x >= 0)", {"x": (0.0, 1.0)}, budget=12, levels=("low",))
 
 
-def multi_fidelity(problem: Problem, seeds: int, budget: int) -> dict[str, Any]:
-    """Low then medium, against medium alone: wall time to a medium-confirmed violation."""
+def multi_fidelity(
+    problem: Problem, seeds: int, budget: int, low_optimizers: list[str]
+) -> dict[str, Any]:
+    """Low then medium, against medium alone: wall time to a medium-confirmed violation.
+
+    Medium alone searches with the default optimizer (fewest simulations, which costs least
+    where simulations are slow); the low-fidelity search with each of ``low_optimizers``
+    (where simulations are cheap, an optimizer's own time per sample counts as well).
+    """
+    default = default_optimizer()
     rows = []
     for seed in range(seeds):
-        # In turns: the later of the two runs on a warmer cache, or a machine less loaded.
-        if seed % 2:
-            alone = problem.search(seed=seed, levels=("medium",), budget=budget)
-            both = problem.search(seed=seed, levels=("low", "medium"))
-        else:
-            both = problem.search(seed=seed, levels=("low", "medium"))
-            alone = problem.search(seed=seed, levels=("medium",), budget=budget)
-        medium = both.stats["medium"]
-        rows.append(
-            {
-                "seed": seed,
-                "multi_found": both.falsified,
-                "multi_wall_s": both.wall_time,
-                "multi_low_simulations": both.simulations,
-                "multi_low_wall_s": both.stats["low"].wall_time,
-                "multi_medium_runs": medium.runs,
+        row: dict[str, Any] = {"seed": seed, "multi": {}}
+        # In turns: the later runs on a warmer cache, or a machine less loaded.
+        order: list[str | None] = [None, *low_optimizers]
+        for name in order[seed % len(order) :] + order[: seed % len(order)]:
+            if name is None:
+                alone = problem.search(
+                    seed=seed, levels=("medium",), budget=budget, optimizer=default
+                )
+                row.update(
+                    alone_found=alone.falsified,
+                    alone_wall_s=alone.wall_time,
+                    alone_simulations=alone.simulations,
+                )
+                continue
+            both = problem.search(seed=seed, levels=("low", "medium"), optimizer=name)
+            medium = both.stats["medium"]
+            row["multi"][name] = {
+                "found": both.falsified,
+                "wall_s": both.wall_time,
+                "low_simulations": both.simulations,
+                "low_wall_s": both.stats["low"].wall_time,
+                "medium_runs": medium.runs,
                 "tried": medium.tried,
                 "transferred": medium.transferred,
-                "alone_found": alone.falsified,
-                "alone_wall_s": alone.wall_time,
-                "alone_simulations": alone.simulations,
-                "alone_budget": budget,
             }
+        rows.append(row)
+        parts = ", ".join(
+            f"{k} {m['wall_s']:.1f} s ({m['low_simulations']} low, {m['medium_runs']} medium)"
+            for k, m in row["multi"].items()
         )
         print(
-            f"  seed {seed}: low+medium {both.wall_time:.1f} s ({both.simulations} low, "
-            f"{medium.runs} medium), medium alone {alone.wall_time:.1f} s "
-            f"({alone.simulations})",
+            f"  seed {seed}: low+medium {parts}; medium alone {row['alone_wall_s']:.1f} s "
+            f"({row['alone_simulations']})",
             flush=True,
         )
-    tried = sum(r["tried"] for r in rows)
-    multi = statistics.median(r["multi_wall_s"] for r in rows)
-    alone = statistics.median(r["alone_wall_s"] for r in rows)
-    return {
-        "seeds": seeds,
+    return mf_summary(rows, budget, default, low_optimizers)
+
+
+def mf_summary(
+    rows: list[dict[str, Any]], budget: int, default: str, low_optimizers: list[str]
+) -> dict[str, Any]:
+    """The multi-fidelity figures over the seeds' rows (see :func:`multi_fidelity`)."""
+    alone = _found_median([(r["alone_wall_s"], r["alone_found"]) for r in rows])
+    out: dict[str, Any] = {
+        "seeds": len(rows),
         "medium_budget": budget,
-        "multi_found": sum(r["multi_found"] for r in rows),
+        "alone_optimizer": default,
         "alone_found": sum(r["alone_found"] for r in rows),
-        "multi_wall_median_s": multi,
         "alone_wall_median_s": alone,
-        "speedup": alone / multi if multi > 0 else None,
-        # Per seed, then the median: how many times less wall time, searched side by side.
-        "speedup_median": statistics.median(
-            r["alone_wall_s"] / r["multi_wall_s"] for r in rows if r["multi_wall_s"] > 0
-        ),
-        "multi_low_simulations_median": statistics.median(r["multi_low_simulations"] for r in rows),
         "alone_simulations_median": statistics.median(r["alone_simulations"] for r in rows),
-        "transfer_rate": sum(r["transferred"] for r in rows) / tried if tried else None,
-        "transferred": sum(r["transferred"] for r in rows),
-        "tried": tried,
+        "low": {},
         "per_seed": rows,
     }
+    for name in low_optimizers:
+        ms = [r["multi"][name] for r in rows]
+        tried = sum(m["tried"] for m in ms)
+        multi = _found_median([(m["wall_s"], m["found"]) for m in ms])
+        out["low"][name] = {
+            "found": sum(m["found"] for m in ms),
+            "wall_median_s": multi,
+            "speedup": alone / multi if alone is not None and multi else None,
+            "low_simulations_median": statistics.median(m["low_simulations"] for m in ms),
+            "transferred": sum(m["transferred"] for m in ms),
+            "tried": tried,
+            "transfer_rate": sum(m["transferred"] for m in ms) / tried if tried else None,
+        }
+    return out
+
+
+def _found_median(runs: list[tuple[float, bool]]) -> float | None:
+    """The median wall time to a counterexample, a search that found none counting as
+    endless (None: more than half found none)."""
+    value = statistics.median(wall if found else math.inf for wall, found in runs)
+    return None if math.isinf(value) else value
 
 
 def real_px4(problem: Problem, seeds: int, firmware: px4.SITL) -> dict[str, Any]:
@@ -240,6 +272,10 @@ def real_px4(problem: Problem, seeds: int, firmware: px4.SITL) -> dict[str, Any]
     }
 
 
+def _seconds(value: float | None) -> str:
+    return "none found" if value is None else f"{value:.1f} s"
+
+
 def _share(transferred: int, tried: int) -> str:
     return "-" if not tried else f"{transferred}/{tried} ({100 * transferred / tried:.0f} %)"
 
@@ -275,46 +311,62 @@ def table(data: dict[str, Any]) -> str:
         )
     mf = data.get("multi_fidelity") or {}
     if mf:
+        first = next(iter(mf.values()))
         lines += [
             "",
-            f"Multi-fidelity, `{default}` searching at low and confirming at medium, against "
-            "the same search at medium alone (budget "
-            f"{next(iter(mf.values()))['medium_budget']}), seed by seed: median wall time to a "
-            "counterexample medium fidelity confirms, median simulations (at low; at medium "
-            "alone), the speed-up (ratio of the medians) and the share of violations found at "
-            "low that medium confirmed:",
+            "Multi-fidelity: searching at low and confirming at medium, against searching at "
+            f"medium alone (`{first['alone_optimizer']}`, budget {first['medium_budget']}), seed "
+            "by seed and in turns: median wall time to a counterexample medium fidelity "
+            "confirms (a search that found none counts as endless), median simulations, the "
+            "speed-up (ratio of the medians) and the share of "
+            "violations found at low that medium confirmed. The low-fidelity search runs with "
+            f"`{first['alone_optimizer']}` and with `tpe`: where a simulation takes milliseconds, "
+            "an optimizer's own time per sample counts as well as its number of samples.",
             "",
-            "| problem | seeds | low + medium | medium alone | simulations | speed-up "
-            "| transfer low to medium |",
+            "| problem | seeds | medium alone | low + medium | simulations (low; medium alone) "
+            "| speed-up | transfer low to medium |",
             "|---|---|---|---|---|---|---|",
         ]
         for name, m in mf.items():
-            lines.append(
-                f"| {name} | {m['seeds']} | {m['multi_wall_median_s']:.1f} s "
-                f"({m['multi_found']}/{m['seeds']} found) | {m['alone_wall_median_s']:.1f} s "
-                f"({m['alone_found']}/{m['seeds']} found) | "
-                f"{m['multi_low_simulations_median']:g}; {m['alone_simulations_median']:g} | "
-                f"{m['speedup']:.1f}x | {_share(m['transferred'], m['tried'])} |"
-            )
+            for optimizer, low in m["low"].items():
+                speedup = "-" if low["speedup"] is None else f"{low['speedup']:.1f}x"
+                lines.append(
+                    f"| {name} | {m['seeds']} | {_seconds(m['alone_wall_median_s'])} "
+                    f"({m['alone_found']}/{m['seeds']} found) | `{optimizer}`: "
+                    f"{_seconds(low['wall_median_s'])} ({low['found']}/{m['seeds']} found) | "
+                    f"{low['low_simulations_median']:g}; {m['alone_simulations_median']:g} | "
+                    f"{speedup} | {_share(low['transferred'], low['tried'])} |"
+                )
     real = data.get("real_px4") or {}
     if real:
         lines += [
             "",
             f"Real PX4 SITL as the top level (`px4.sitl_level`): `{default}` searching at low, "
             "confirming at medium (built-in autopilot) and on real PX4 (v1.15.4 on the same "
-            "MuJoCo world); per level, the violations from below that held there:",
+            "MuJoCo world); per level, the violations from below that held there; the median "
+            "wall time of a search to a counterexample real PX4 confirmed, against the same "
+            "number of simulations flown on real PX4 alone (an estimate: simulations times the "
+            "mean wall time of a real PX4 run):",
             "",
-            "| problem | seeds | confirmed on real PX4 | medium | real PX4 | wall time per real "
-            "PX4 run |",
-            "|---|---|---|---|---|---|",
+            "| problem | seeds | confirmed on real PX4 | medium | real PX4 | per real PX4 run "
+            "| low + medium + real | real PX4 alone (est.) | saved |",
+            "|---|---|---|---|---|---|---|---|---|",
         ]
         for name, r in real.items():
             medium, top = r["levels"]["medium"], r["levels"][px4.SITL_LEVEL]
-            per_run = "-" if top["mean_wall_s"] is None else f"{top['mean_wall_s']:.0f} s"
+            per_run = top["mean_wall_s"]
+            found = [x for x in r["per_seed"] if x["found"]]
+            if per_run is None or not found:
+                times = "- | - | -"
+            else:
+                wall = statistics.median(x["wall_s"] for x in found)
+                alone = statistics.median(x["low_simulations"] * per_run for x in found)
+                times = f"{wall:.0f} s | {alone:.0f} s | {alone / wall:.1f}x"
             lines.append(
                 f"| {name} | {r['seeds']} | {r['found']}/{r['seeds']} "
                 f"| {_share(medium['transferred'], medium['tried'])} "
-                f"| {_share(top['transferred'], top['tried'])} | {per_run} |"
+                f"| {_share(top['transferred'], top['tried'])} "
+                f"| {'-' if per_run is None else f'{per_run:.0f} s'} | {times} |"
             )
     lines.append(END)
     return "\n".join(lines)
@@ -358,6 +410,11 @@ def main() -> int:
     parser.add_argument("--mf-seeds", type=int, default=10, help="multi-fidelity seeds (0: skip)")
     parser.add_argument("--mf-problems", default=",".join(PROBLEMS))
     parser.add_argument("--mf-budget", type=int, default=60, help="medium-alone budget")
+    parser.add_argument(
+        "--mf-low",
+        default=f"{default_optimizer()},tpe",
+        help="optimizers of the low-fidelity search in multi-fidelity",
+    )
     parser.add_argument(
         "--px4-binary",
         default=os.environ.get("MCS_PX4_BINARY"),
@@ -423,13 +480,16 @@ def main() -> int:
     if args.mf_seeds:
         for name in filter(None, args.mf_problems.split(",")):
             print(f"multi-fidelity {name}:", flush=True)
-            mf[name] = multi_fidelity(PROBLEMS[name], args.mf_seeds, args.mf_budget)
-            m = mf[name]
-            print(
-                f"  {m['multi_wall_median_s']:.1f} s vs {m['alone_wall_median_s']:.1f} s at "
-                f"medium alone ({m['speedup']:.1f}x), transfer {m['transferred']}/{m['tried']}",
-                flush=True,
+            mf[name] = multi_fidelity(
+                PROBLEMS[name], args.mf_seeds, args.mf_budget, args.mf_low.split(",")
             )
+            for optimizer, low in mf[name]["low"].items():
+                print(
+                    f"  {optimizer}: {low['wall_median_s']:.1f} s vs "
+                    f"{mf[name]['alone_wall_median_s']:.1f} s at medium alone "
+                    f"({low['speedup']:.1f}x), transfer {low['transferred']}/{low['tried']}",
+                    flush=True,
+                )
             save(optimizers, args.seeds, problems, mf, real, args.output)
     if firmware is not None:
         for name in filter(None, args.real_problems.split(",")):
