@@ -11,8 +11,8 @@ public APIs:
   The controller measures distances with GPS: a spoof while it drives makes it turn late, or
   drive on past its end point.
 * ``rover-turn``: the rover's true heading must never go more than 20 degrees past the
-  planned one, under a compass spoof (a heading that walks away at a steady rate from its
-  onset), over the mission's speed, steering lock and control rate, the compass's noise and
+  planned one, under a compass spoof (a heading that walks away at a steady rate for a
+  while), over the mission's speed, steering lock and control rate, the compass's noise and
   the physics world's timestep and solver iterations (the simulation configuration is part
   of the space): the controller counts its turn on the compass, so a spoof during a long,
   slow turn makes it turn too far.
@@ -203,11 +203,11 @@ def rover_turn(sample: Mapping[str, Any], fidelity: str, seed: int) -> dict[str,
     )
     noise = dataclasses.replace(NOISE, magnetometer=sample["compass_noise"])
     simulator = rover.Rover(fidelity=fidelity, seed=seed, world=world, noise=noise)  # type: ignore[arg-type]
-    # The heading the compass gives walks away at a steady rate: the controller, which counts
-    # its turn on the compass, turns too far (or not far enough).
-    attacks.inject(
-        simulator, "magnetometer", [attacks.Drift(rate=sample["drift"], start=sample["start"])]
-    )
+    # The heading the compass gives walks away at a steady rate for a while, then snaps back:
+    # the controller, which counts its turn on the compass, turns too far (or not far enough).
+    end = sample["start"] + sample["duration"]
+    spoof = attacks.Drift(rate=sample["drift"], start=sample["start"], end=end)
+    attacks.inject(simulator, "magnetometer", [spoof])
     truth = _Yaw()
     simulator.add(mcs.ParticipantComponent(lambda: truth, name="truth"))
     with simulator.start() as simulation:
@@ -221,8 +221,9 @@ def rover_turn(sample: Mapping[str, Any], fidelity: str, seed: int) -> dict[str,
 
 
 TURN_SPACE: dict[str, Any] = {
-    "drift": (-0.08, 0.08),  # rad/s, how fast the compass spoof walks the heading away
+    "drift": (-0.15, 0.15),  # rad/s, how fast the compass spoof walks the heading away
     "start": (0.0, 10.0),  # s after the start of the run
+    "duration": (0.5, 10.0),  # s until the spoof stops
     "speed": (1.0, 5.0),  # m/s, also the turn speed
     "steering": (0.1, 0.5),  # rad, the steering lock of the turn
     "rate": (10.0, 40.0),  # Hz, the controller's loop
