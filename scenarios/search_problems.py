@@ -209,7 +209,7 @@ def rover_turn(sample: Mapping[str, Any], fidelity: str, seed: int) -> dict[str,
     spoof = attacks.Drift(rate=sample["drift"], start=sample["start"], end=end)
     attacks.inject(simulator, "magnetometer", [spoof])
     truth = _Yaw()
-    simulator.add(mcs.ParticipantComponent(lambda: truth, name="truth"))
+    simulator.add(mcs.InProcessComponent(lambda: truth, name="truth"))
     with simulator.start() as simulation:
         simulation.controller.send(mission)
     # Over the whole run, not only once the controller says the turn is done: a turn the
