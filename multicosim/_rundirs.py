@@ -17,6 +17,7 @@ import shutil
 import signal
 import stat
 import tempfile
+import time
 import uuid
 from pathlib import Path
 
@@ -57,6 +58,11 @@ def start_time(pid: int) -> str | None:
     """When process ``pid`` started (clock ticks since boot), or None if there is none."""
     fields = _stat(pid)
     return None if fields is None else fields[19]  # field 22
+
+
+# Seconds a run directory may lack its owner record (being created) before a sweep takes it
+# for the leftover of a process killed while creating it.
+_CREATING = 60.0
 
 
 def _identity(pid: int) -> str:
@@ -144,6 +150,13 @@ def _group_members(pgid: int, run_id: str) -> list[int]:
 def _owner_alive(run_dir: Path) -> bool:
     try:
         record = (run_dir / "owner").read_text()
+    except FileNotFoundError:
+        # new_run_dir writes the owner just after creating the directory: another process's
+        # sweep in between must not take a run being created for a dead one.
+        try:
+            return time.time() - os.lstat(run_dir).st_mtime < _CREATING
+        except OSError:
+            return False
     except OSError:
         return False
     same = _same_process(record)

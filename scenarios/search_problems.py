@@ -6,24 +6,33 @@ violates the requirement is small (measured by ``bench/bench_search.py`` with un
 samples, and stated in the README). The problems use the shipped scenarios through their
 public APIs:
 
-* ``rover-lane``: the rover FSA under a GPS spoof (a fix that walks away at a steady rate
-  from its onset) at a mission speed must stay in a 6 m lane around its planned path. The
-  controller measures distances with GPS: a spoof while it drives makes it turn early or
-  late, or stop too far.
-* ``rover-turn``: the rover's heading after its turn must stay within 40 degrees of the
-  planned one... , steering lock and control rate, compass noise and the
-  physics world's timestep and solver iterations (the simulation configuration is part of
-  the space).
+* ``rover-lane``: the rover FSA under a GPS spoof (an offset that appears at its onset,
+  reached over a ramp) at a mission speed must stay in a 6 m lane around its planned path.
+  The controller measures distances with GPS: a spoof while it drives makes it turn late, or
+  drive on past its end point.
+* ``rover-turn``: the rover's true heading must never go more than 20 degrees past the
+  planned one, under a compass spoof (a heading that walks away at a steady rate for a
+  while), over the mission's speed, steering lock and control rate, the compass's noise and
+  the physics world's timestep and solver iterations (the simulation configuration is part
+  of the space): the controller counts its turn on the compass, so a spoof during a long,
+  slow turn makes it turn too far.
 * ``px4-geofence``: the PX4 mission (three waypoints, 40 m from home, 8 m up) under a GPS
   spoof must keep the vehicle's true position within 76 m of home: the autopilot flies where
   the spoofed fix says it is not.
 * ``px4-altitude``: the same mission under a barometer spoof must keep the vehicle at least
   1 m above the ground after take-off: the altitude estimate follows the barometer, until
   the barometer disagrees with GPS by more than 8 m (the estimator then drops it, as PX4's
-  EKF2 does). Only a spoof between about 7 and 8 m, during the mission, brings it down.
+  EKF2 does): a spoof brings it down only if it reaches 7 m and is not more than 8 m for
+  long (a narrow band, or a slow ramp through it), during the mission.
 
 Every problem runs at low and medium fidelity (MuJoCo physics, realistic sensor noise,
-processes in lockstep); the benchmark searches at low and confirms at medium.
+processes in lockstep); the benchmark searches at low and confirms at medium. The rover
+problems give every level the same realistic sensor noise: with ideal sensors at low
+fidelity, a violation can rest on a balance that a centimetre of GPS noise breaks (the
+controller creeping towards its end point exactly as fast as a spoof walks the fix away),
+and would not transfer. The PX4 problems also fly real PX4 SITL: :meth:`Problem.levels`
+with a :class:`multicosim.px4.SITL` adds it as the top level (search at low, confirm at
+medium, confirm on real PX4).
 """
 
 from __future__ import annotations
@@ -39,7 +48,7 @@ import multicosim as mcs
 import multicosim.attacks as attacks
 import multicosim.px4 as px4
 import multicosim.rover as rover
-from multicosim.falsify import Choice, FalsificationResult, Integer, Real, falsify
+from multicosim.falsify import Choice, FalsificationResult, Integer, Level, Real, falsify
 from multicosim.geo import LocalProjection
 from multicosim.requirements import Requirement
 
@@ -48,7 +57,11 @@ __all__ = ["PROBLEMS", "Problem"]
 
 @dataclasses.dataclass(frozen=True)
 class Problem:
-    """A falsification problem: simulate, requirement, space, and a budget that suits it."""
+    """A falsification problem: simulate, requirement, space, and a budget that suits it.
+
+    ``flies_px4``: ``simulate`` takes a ``firmware`` keyword (a :class:`px4.SITL` flies the
+    mission on real PX4).
+    """
 
     name: str
     description: str
@@ -56,6 +69,14 @@ class Problem:
     requirement: Requirement
     space: Mapping[str, Any]
     budget: int
+    flies_px4: bool = False
+
+    def levels(self, firmware: px4.SITL | None = None) -> tuple[str | Level, ...]:
+        """Search at low, confirm at medium, and on real PX4 where ``firmware`` is given
+        (PX4 problems only: the rover has no real firmware to confirm on)."""
+        if firmware is None or not self.flies_px4:
+            return ("low", "medium")
+        return ("low", "medium", px4.sitl_level(self.simulate, firmware))
 
     def search(self, *, seed: int, levels: Any = ("low",), **options: Any) -> FalsificationResult:
         """Falsify this problem (the problem's budget unless ``budget`` is given)."""
@@ -69,6 +90,8 @@ class Problem:
 
 LANE = 6.0  # m either side of the planned path
 LANE_MISSION = {"wait": 5.0, "distance": 7.0, "final_distance": 7.0}
+# The same realistic sensors at every level (see the module's docstring).
+NOISE = rover.SensorNoise.realistic()
 
 
 class _Truth:
@@ -121,12 +144,12 @@ def distance_to_path(points: np.ndarray, path: np.ndarray) -> np.ndarray:
 
 
 def rover_lane(sample: Mapping[str, Any], fidelity: str, seed: int) -> dict[str, Any]:
-    """Fly the lane mission under the sample's GPS spoof: time and distance to the plan."""
+    """Drive the lane mission under the sample's GPS spoof: time and distance to the plan."""
     mission = rover.Mission(speed=sample["speed"], **LANE_MISSION)
-    simulator = rover.Rover(fidelity=fidelity, seed=seed)  # type: ignore[arg-type]
-    # A spoof that walks the fix away at a steady rate: the controller's sense of distance
-    # drifts with it.
-    spoof = attacks.Drift(rate=(sample["east"], sample["north"], 0.0), start=sample["start"])
+    simulator = rover.Rover(fidelity=fidelity, seed=seed, noise=NOISE)  # type: ignore[arg-type]
+    spoof = attacks.Jump(
+        offset=(sample["east"], sample["north"], 0.0), start=sample["start"], ramp=sample["ramp"]
+    )
     attacks.inject(simulator, "gps", [spoof])
     truth = _Truth()
     simulator.add(mcs.InProcessComponent(lambda: truth, name="truth"))
@@ -137,41 +160,71 @@ def rover_lane(sample: Mapping[str, Any], fidelity: str, seed: int) -> dict[str,
 
 
 LANE_SPACE: dict[str, Any] = {
-    "east": (-0.3, 0.3),  # spoof drift, m/s
-    "north": (-0.3, 0.3),
+    "east": (-8.0, 8.0),  # spoof offset, m
+    "north": (-8.0, 8.0),
     "start": (0.0, 30.0),  # s after the start of the run
+    "ramp": (0.0, 10.0),  # s to reach the full offset
     "speed": (1.0, 5.0),  # m/s
 }
 
-TURN_LIMIT = math.radians(9.0)
+TURN_LIMIT = math.radians(20.0)
 TURN_MISSION = {"wait": 0.5, "distance": 2.0, "final_distance": 3.0}
 
 
+class _Yaw:
+    """A participant that keeps the rover's true heading (the IMU's orientation)."""
+
+    period = 0.05
+
+    def __init__(self) -> None:
+        self.times: list[float] = []
+        self.yaw: list[float] = []
+
+    def setup(self, ctx: mcs.StepContext) -> None:
+        self.imu = ctx.subscribe(rover.SENSOR_TOPICS["imu"], rover.Imu)
+
+    def step(self, ctx: mcs.StepContext) -> None:
+        latest = self.imu.latest
+        if latest is not None:
+            self.times.append(ctx.time)
+            self.yaw.append(rover.yaw_from_quaternion(latest.orientation))
+
+
 def rover_turn(sample: Mapping[str, Any], fidelity: str, seed: int) -> dict[str, Any]:
-    """A short turn mission with the sample's mission, sensor and world configuration."""
+    """A turn under the sample's compass spoof, mission, sensor and world configuration: how
+    far the true heading goes past the planned one (negative until the turn is done)."""
     mission = rover.Mission(
         speed=sample["speed"], steering=sample["steering"], rate=sample["rate"], **TURN_MISSION
     )
-    base = rover.default_noise(fidelity)  # type: ignore[arg-type]
-    noise = dataclasses.replace(base, magnetometer=sample["compass_noise"])
     world = dataclasses.replace(
         rover.default_world(fidelity),  # type: ignore[arg-type]
         timestep=sample["timestep"],
         iterations=sample["iterations"],
     )
-    with rover.Rover(fidelity=fidelity, seed=seed, world=world, noise=noise).start() as sim:  # type: ignore[arg-type]
-        trajectory = sim.controller.send(mission)
-    after = [s.state in ("drive_again", "done") for s in trajectory.samples]
+    noise = dataclasses.replace(NOISE, magnetometer=sample["compass_noise"])
+    simulator = rover.Rover(fidelity=fidelity, seed=seed, world=world, noise=noise)  # type: ignore[arg-type]
+    # The heading the compass gives walks away at a steady rate for a while, then snaps back:
+    # the controller, which counts its turn on the compass, turns too far (or not far enough).
+    end = sample["start"] + sample["duration"]
+    spoof = attacks.Drift(rate=sample["drift"], start=sample["start"], end=end)
+    attacks.inject(simulator, "magnetometer", [spoof])
+    truth = _Yaw()
+    simulator.add(mcs.InProcessComponent(lambda: truth, name="truth"))
+    with simulator.start() as simulation:
+        simulation.controller.send(mission)
+    # Over the whole run, not only once the controller says the turn is done: a turn the
+    # spoof keeps going (until it times out) is the worst overshoot, and the margin then
+    # shrinks steadily towards it instead of jumping back to the limit.
     sign = 1.0 if mission.turn_angle > 0 else -1.0
-    overshoot = [
-        sign * math.remainder(s.heading - mission.turn_angle, math.tau) if a else 0.0
-        for s, a in zip(trajectory.samples, after, strict=True)
-    ]
-    return {"time": trajectory.times, "overshoot": overshoot}
+    overshoot = [sign * math.remainder(yaw - mission.turn_angle, math.tau) for yaw in truth.yaw]
+    return {"time": truth.times, "overshoot": overshoot}
 
 
 TURN_SPACE: dict[str, Any] = {
-    "speed": (1.0, 10.0),  # m/s, also the turn speed
+    "drift": (-0.15, 0.15),  # rad/s, how fast the compass spoof walks the heading away
+    "start": (0.0, 10.0),  # s after the start of the run
+    "duration": (0.5, 10.0),  # s until the spoof stops
+    "speed": (1.0, 5.0),  # m/s, also the turn speed
     "steering": (0.1, 0.5),  # rad, the steering lock of the turn
     "rate": (10.0, 40.0),  # Hz, the controller's loop
     "compass_noise": (0.0, 4e-7),  # T, the magnetometer's noise (the field is 2e-5 T)
@@ -202,27 +255,37 @@ PX4_MISSION = px4.Configuration(
 )
 
 
-def _fly(models: list[attacks.Model], sensor: str, fidelity: str, seed: int) -> px4.MissionResult:
-    simulator = px4.PX4(fidelity=fidelity, seed=seed)  # type: ignore[arg-type]
+def _fly(
+    models: list[attacks.Model], sensor: str, fidelity: str, seed: int, firmware: px4.SITL | None
+) -> px4.MissionResult:
+    simulator = px4.PX4(fidelity=fidelity, seed=seed, firmware=firmware)  # type: ignore[arg-type]
     attacks.inject(simulator, sensor, models)
     with simulator.start() as simulation:
         return simulation.firmware.send(PX4_MISSION)
 
 
-def px4_geofence(sample: Mapping[str, Any], fidelity: str, seed: int) -> dict[str, Any]:
-    """The mission under the sample's GPS spoof: time and true distance from home."""
+def px4_geofence(
+    sample: Mapping[str, Any], fidelity: str, seed: int, firmware: px4.SITL | None = None
+) -> dict[str, Any]:
+    """The mission under the sample's GPS spoof: time and true distance from home.
+
+    ``firmware``: real PX4 SITL flies it (medium or high fidelity) instead of the built-in
+    autopilot."""
     spoof = attacks.Jump(
         offset=(sample["east"], sample["north"], 0.0), start=sample["start"], ramp=sample["ramp"]
     )
-    result = _fly([spoof], "gps", fidelity, seed)
+    result = _fly([spoof], "gps", fidelity, seed, firmware)
     distance = [math.hypot(*PROJECTION.project(s.true_lat, s.true_lon)) for s in result.trajectory]
     return {"time": [s.time for s in result.trajectory], "distance": distance}
 
 
-def px4_altitude(sample: Mapping[str, Any], fidelity: str, seed: int) -> dict[str, Any]:
-    """The mission under the sample's barometer spoof: true height once past take-off."""
+def px4_altitude(
+    sample: Mapping[str, Any], fidelity: str, seed: int, firmware: px4.SITL | None = None
+) -> dict[str, Any]:
+    """The mission under the sample's barometer spoof: true height once past take-off
+    (``firmware`` as for :func:`px4_geofence`)."""
     spoof = attacks.Jump(offset=sample["offset"], start=sample["start"], ramp=sample["ramp"])
-    result = _fly([spoof], "baro", fidelity, seed)
+    result = _fly([spoof], "baro", fidelity, seed, firmware)
     # Before the first waypoint is current, the vehicle is on the ground or climbing.
     height = [s.true_alt if s.current >= 1 else FLOOR + 10.0 for s in result.trajectory]
     return {"time": [s.time for s in result.trajectory], "height": height}
@@ -253,7 +316,8 @@ PROBLEMS: dict[str, Problem] = {
         ),
         Problem(
             "rover-turn",
-            "rover turn overshoots by at most 9 degrees, over mission, noise and world",
+            "rover turn under a compass spoof overshoots by at most 20 degrees, over mission, "
+            "noise and world",
             rover_turn,
             Requirement(f"always (overshoot <= {TURN_LIMIT:.6f})", name="turn overshoot"),
             TURN_SPACE,
@@ -266,6 +330,7 @@ PROBLEMS: dict[str, Problem] = {
             Requirement(f"always (distance <= {FENCE:g})", name="geofence"),
             SPOOF_SPACE,
             200,
+            flies_px4=True,
         ),
         Problem(
             "px4-altitude",
@@ -274,6 +339,7 @@ PROBLEMS: dict[str, Problem] = {
             Requirement(f"always (height >= {FLOOR:g})", name="altitude floor"),
             BARO_SPACE,
             200,
+            flies_px4=True,
         ),
     )
 }

@@ -370,6 +370,20 @@ def test_sweep_removes_processes_of_a_killed_run(tmp_path: Path) -> None:
         unrelated.wait()
 
 
+def test_sweep_keeps_a_run_directory_being_created(tmp_path: Path) -> None:
+    # Another process's sweep can come between creating a run's directory and writing its
+    # owner: a directory just created is not a dead run's; one left long without an owner is.
+    creating = tmp_path / "mcs-000000000001"
+    creating.mkdir()
+    left = tmp_path / "mcs-000000000002"
+    left.mkdir()
+    old = time.time() - 3600
+    os.utime(left, (old, old))
+    assert sweep_stale_runs(tmp_path) == []
+    assert creating.is_dir()
+    assert not left.exists()
+
+
 def test_participant_program_needs_a_simulation() -> None:
     out = subprocess.run(
         [sys.executable, "-m", "multicosim", "participant", "multicosim.testing:Cart"],

@@ -115,11 +115,24 @@ def test_px4_listing_runs() -> None:
 def test_real_px4_listing_runs(px4_sitl: RealPX4) -> None:
     if px4_sitl.binary is None:
         pytest.skip("the listing runs a PX4 binary")
-    code = _block("px4.SITL(binary=").replace('"../shared/px4-sitl/bin/px4"', repr(px4_sitl.binary))
-    result = _run("px4.SITL(binary=", code=code)["result"]
+    code = _block("firmware = px4.SITL(binary=")
+    code = code.replace('"../shared/px4-sitl/bin/px4"', repr(px4_sitl.binary))
+    result = _run("firmware = px4.SITL(binary=", code=code)["result"]
     assert result.completed, result.reason
     assert result.firmware_version == "1.15.4"
     assert [r.index for r in result.reached] == [0]
+
+
+def test_real_px4_search_listing_runs(px4_sitl: RealPX4) -> None:
+    if px4_sitl.binary is None:
+        pytest.skip("the listing runs a PX4 binary")
+    code = _block("px4.sitl_level(").replace('"../shared/px4-sitl/bin/px4"', repr(px4_sitl.binary))
+    result = _run("px4.sitl_level(", code=code)["result"]
+    assert result.falsified, result.summary()
+    assert result.counterexample.failing_levels == ("low", "medium", "px4-sitl")
+    # Each level confirmed at least the violation the search ended on.
+    assert set(result.transfer_rates) == {"medium", "px4-sitl"}
+    assert all(0 < rate <= 1 for rate in result.transfer_rates.values())
 
 
 def test_ardupilot_listing_runs(ardupilot_dir: str) -> None:
@@ -148,7 +161,7 @@ def test_psy_taliro_listing_runs() -> None:
 
 
 def test_search_listing_runs() -> None:
-    result = _run("from multicosim.falsify import")["result"]
+    result = _run("from multicosim.falsify import Integer, falsify")["result"]
     assert result.falsified, result.summary()
     cx = result.counterexample
     assert cx.failing_levels == ("low", "medium")  # found cheaply, confirmed by physics

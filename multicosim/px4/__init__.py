@@ -15,6 +15,9 @@
     # Real PX4 SITL (a px4_sitl_default build) flying the same world, in lockstep:
     px4.PX4(world, fidelity="medium", firmware=px4.SITL(binary="build/px4_sitl_default/bin/px4"))
 
+    # Real PX4 as the top level of a falsifying search (see multicosim.falsify):
+    levels = ("low", "medium", px4.sitl_level(simulate, px4.SITL(binary=...)))
+
 ``import multicosim.px4`` loads neither MuJoCo nor pymavlink; they load when a simulation
 starts.
 """
@@ -48,6 +51,8 @@ _LAZY = {
     "PX4Node": "._simulator",
     "PX4Simulation": "._simulator",
     "SITL": "._real",
+    "SITL_LEVEL": "._levels",
+    "sitl_level": "._levels",
     "WorldComponent": "._simulator",
 }
 
@@ -57,6 +62,7 @@ __all__ = [
     "HIGH_FIDELITY_WORLD",
     "PX4",
     "SITL",
+    "SITL_LEVEL",
     "Backend",
     "Configuration",
     "Fidelity",
@@ -73,9 +79,11 @@ __all__ = [
     "Waypoint",
     "WaypointReached",
     "WorldComponent",
+    "sitl_level",
 ]
 
 if TYPE_CHECKING:
+    from ._levels import SITL_LEVEL, sitl_level
     from ._real import SITL
     from ._simulator import (
         BACKENDS,

@@ -60,6 +60,7 @@ from ._vehicle import (
     SensorNoise,
     ackermann,
     heading_from_field,
+    yaw_from_quaternion,
 )
 
 __all__ = [
@@ -107,4 +108,5 @@ __all__ = [
     "planned_endpoint",
     "world_command",
     "world_component",
+    "yaw_from_quaternion",
 ]

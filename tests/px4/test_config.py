@@ -138,10 +138,12 @@ def test_public_names() -> None:
         "PX4Simulation",
         "SITL",
         "FlightSample",
+        "SITL_LEVEL",
         "Topics",
         "Waypoint",
         "WaypointReached",
         "WorldComponent",
+        "sitl_level",
     }
     for name in px4.__all__:
         assert getattr(px4, name) is not None
