@@ -226,7 +226,12 @@ def decode_frames(mav: Any, data: bytes) -> list[Any]:
     """
     for packed, frames in reversed(_packed):
         if packed is data:
-            return [m if m is not None else decode_frames(mav, frame)[0] for frame, m in frames]
+            # A frame may be ``data`` itself: parse it, never look it up again.
+            return [m if m is not None else _parse_frames(mav, frame)[0] for frame, m in frames]
+    return _parse_frames(mav, data)
+
+
+def _parse_frames(mav: Any, data: bytes) -> list[Any]:
     out: list[Any] = []
     i, n = 0, len(data)
     decode = mav.decode

@@ -7,7 +7,7 @@ import math
 from hypothesis import given
 from hypothesis import strategies as st
 
-from multicosim.px4._mav import decode_frames, dialect, new_link, pack_scalar
+from multicosim.px4._mav import decode_frames, dialect, new_link, pack_scalar, remember
 
 i32 = st.integers(-(2**31), 2**31 - 1)
 u32 = st.integers(0, 2**32 - 1)
@@ -58,3 +58,13 @@ def test_decode_frames_survives_garbage() -> None:
     decoded = decode_frames(new_link(0, 0), good + b"\x00\x01")
     assert decoded[0].get_type() == "HEARTBEAT"
     assert all(m.get_type() != "HEARTBEAT" for m in decode_frames(new_link(0, 0), bytes(corrupt)))
+
+
+def test_a_packet_of_one_remembered_frame_is_parsed() -> None:
+    # A one-frame packet is its own frame: the message left to parse is parsed, not looked up.
+    d = dialect()
+    frame = bytes(d.MAVLink_heartbeat_message(2, 12, 0, 0, 3, 3).pack(new_link(1, 1)))
+    remember(frame, [(frame, None)])
+    (decoded,) = decode_frames(new_link(0, 0), frame)
+    assert decoded.get_type() == "HEARTBEAT"
+    assert decoded.get_srcSystem() == 1
