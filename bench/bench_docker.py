@@ -127,16 +127,21 @@ def bench_start(n: int) -> dict[str, list[float]]:
 
 
 def bench_rtt(calls: int, blocks: int = 5) -> dict[str, list[float]]:
-    """Interleaved blocks of round trips: node.send against a raw DEALER on the same port."""
+    """Interleaved blocks of round trips: node.send against a raw DEALER.
+
+    A component answers its simulation host only, so the raw DEALER talks to the same
+    program in a raw container of its own (``docker run``, published on loopback as ours).
+    """
     sim = ContainerSimulator()
     fw = sim.add(_firmware())
     samples: dict[str, list[float]] = {"raw": [], "send": []}
     zctx: zmq.Context[Any] = zmq.Context()
+    _, raw, raw_port = raw_start(client(), zctx)
     with sim.start() as running:
         node = running.get(fw)
         sock = zctx.socket(zmq.DEALER)
         sock.setsockopt(zmq.LINGER, 0)
-        sock.connect(node.endpoint)
+        sock.connect(f"tcp://127.0.0.1:{raw_port}")
         msg = st.Echo("x")
         decoder = wire.from_firmware
         reply_decoder = msgspec.msgpack.Decoder(st.EchoReply)
@@ -158,6 +163,7 @@ def bench_rtt(calls: int, blocks: int = 5) -> dict[str, list[float]]:
                 node.send(msg)
             samples["send"].append((time.perf_counter() - t0) / calls)
         sock.close(0)
+    raw.remove(force=True)
     zctx.destroy(linger=0)
     return samples
 
