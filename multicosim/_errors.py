@@ -34,7 +34,7 @@ Exceptions of the libraries underneath are turned into these in one place,
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from ._check import ComponentReport
@@ -67,6 +67,17 @@ __all__ = [
 
 class MulticosimError(Exception):
     """Root of every error raised by multicosim."""
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        # Errors cross process boundaries (campaign workers, Ray): rebuilt from the message
+        # and the attributes, since most constructors take other arguments than ``args``.
+        return (_rebuild, (type(self), self.args), self.__dict__)
+
+
+def _rebuild(cls: type[MulticosimError], args: tuple[Any, ...]) -> MulticosimError:
+    error = cls.__new__(cls, *args)
+    error.args = args
+    return error
 
 
 class ConfigurationError(MulticosimError, ValueError):

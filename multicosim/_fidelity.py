@@ -7,11 +7,24 @@ from typing import Literal, TypeGuard
 
 from ._errors import ConfigurationError
 
-__all__ = ["BACKENDS", "FIDELITIES", "Backend", "Fidelity", "check_fidelity", "is_fidelity"]
+__all__ = [
+    "BACKENDS",
+    "FIDELITIES",
+    "FIRMWARE_FIDELITIES",
+    "Backend",
+    "Fidelity",
+    "FirmwareFidelity",
+    "check_fidelity",
+    "is_fidelity",
+]
 
 Fidelity = Literal["low", "medium", "high"]
 # Lowest first: analytic models in-process, MuJoCo in processes, MuJoCo's finest settings.
 FIDELITIES: tuple[Fidelity, ...] = ("low", "medium", "high")
+
+FirmwareFidelity = Literal["medium", "high"]
+# Real firmware (PX4, ArduPilot SITL) flies the MuJoCo world: it has no low fidelity.
+FIRMWARE_FIDELITIES: tuple[FirmwareFidelity, ...] = ("medium", "high")
 
 
 Backend = Literal["process", "docker"]

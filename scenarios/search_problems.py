@@ -19,11 +19,13 @@ public APIs:
 * ``px4-geofence``: the PX4 mission (three waypoints, 40 m from home, 8 m up) under a GPS
   spoof must keep the vehicle's true position within 76 m of home: the autopilot flies where
   the spoofed fix says it is not.
-* ``px4-altitude``: the same mission under a barometer spoof must keep the vehicle at least
-  1 m above the ground after take-off: the altitude estimate follows the barometer, until
-  the barometer disagrees with GPS by more than 8 m (the estimator then drops it, as PX4's
-  EKF2 does): a spoof brings it down only if it reaches 7 m and is not more than 8 m for
-  long (a narrow band, or a slow ramp through it), during the mission.
+* ``px4-altitude``: the same mission, flown on barometric height (``EKF2_HGT_REF`` 0; with
+  PX4's default, GNSS height, a barometer spoof barely moves the estimate), under a
+  barometer spoof must keep the vehicle at least 1 m above the ground after take-off: the
+  altitude estimate follows the barometer, until the barometer disagrees with GPS by more
+  than 8 m (the estimator then drops it): a spoof brings it down only if it reaches 7 m and
+  is not more than 8 m for long (a narrow band, or a slow ramp through it), during the
+  mission.
 
 Every problem runs at low and medium fidelity (MuJoCo physics, realistic sensor noise,
 processes in lockstep); the benchmark searches at low and confirms at medium. The rover
@@ -245,6 +247,8 @@ def _waypoint(north: float, east: float, alt: float) -> px4.Waypoint:
     return px4.Waypoint(lat, lon, alt)
 
 
+# Height from the barometer (PX4's EKF2_HGT_REF 0), not PX4's default GNSS.
+BARO_HEIGHT = {"EKF2_HGT_REF": 0.0}
 # 8 m up: the estimator drops a barometer more than 8 m off, so the floor is within reach
 # of the spoofs it still trusts.
 ALTITUDE = 8.0
@@ -256,9 +260,14 @@ PX4_MISSION = px4.Configuration(
 
 
 def _fly(
-    models: list[attacks.Model], sensor: str, fidelity: str, seed: int, firmware: px4.SITL | None
+    models: list[attacks.Model],
+    sensor: str,
+    fidelity: str,
+    seed: int,
+    firmware: px4.SITL | None,
+    params: dict[str, float] | None = None,
 ) -> px4.MissionResult:
-    simulator = px4.PX4(fidelity=fidelity, seed=seed, firmware=firmware)  # type: ignore[arg-type]
+    simulator = px4.PX4(fidelity=fidelity, seed=seed, firmware=firmware, params=params or {})  # type: ignore[arg-type]
     attacks.inject(simulator, sensor, models)
     with simulator.start() as simulation:
         return simulation.firmware.send(PX4_MISSION)
@@ -285,7 +294,7 @@ def px4_altitude(
     """The mission under the sample's barometer spoof: true height once past take-off
     (``firmware`` as for :func:`px4_geofence`)."""
     spoof = attacks.Jump(offset=sample["offset"], start=sample["start"], ramp=sample["ramp"])
-    result = _fly([spoof], "baro", fidelity, seed, firmware)
+    result = _fly([spoof], "baro", fidelity, seed, firmware, BARO_HEIGHT)
     # Before the first waypoint is current, the vehicle is on the ground or climbing.
     height = [s.true_alt if s.current >= 1 else FLOOR + 10.0 for s in result.trajectory]
     return {"time": [s.time for s in result.trajectory], "height": height}
@@ -334,7 +343,8 @@ PROBLEMS: dict[str, Problem] = {
         ),
         Problem(
             "px4-altitude",
-            f"PX4 mission under a barometer spoof stays {FLOOR:g} m above ground",
+            f"PX4 mission on barometric height under a barometer spoof stays {FLOOR:g} m "
+            "above ground",
             px4_altitude,
             Requirement(f"always (height >= {FLOOR:g})", name="altitude floor"),
             BARO_SPACE,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import inspect
+import pickle
 import re
 
 import pytest
@@ -54,6 +55,36 @@ def test_classic_bases_are_kept() -> None:
     assert issubclass(mcs.RequirementViolation, AssertionError)
     assert issubclass(mcs.FormulaError, ValueError)
     assert issubclass(mcs.ImageMissingError, mcs.NodeStartError)
+
+
+@pytest.mark.parametrize(
+    "error",
+    [
+        mcs.ConfigurationError("speed", -1.0, "a speed > 0"),
+        mcs.FormulaError("always (x <", 1, 11, "unexpected end"),
+        _errors.DependencyMissingError("torch", "gp"),
+        mcs.NodeCrashedError("world", "exited", exit_code=3, log_tail="boom\n"),
+        mcs.RemoteError("autopilot", "KeyError", "'x'", "Traceback ..."),
+        mcs.RequirementViolation(
+            Requirement("always (x >= 0)").evaluate({"time": [0.0], "x": [-1.0]})
+        ),
+    ],
+    ids=lambda e: type(e).__name__,
+)
+def test_errors_cross_process_boundaries(error: mcs.MulticosimError) -> None:
+    # Campaign workers and Ray send errors back pickled; custom constructors must not break it.
+    back = pickle.loads(pickle.dumps(error))
+    assert type(back) is type(error)
+    assert str(back) == str(error)
+    assert vars(back).keys() == vars(error).keys()
+    if isinstance(error, mcs.RequirementViolation):
+        assert isinstance(back, mcs.RequirementViolation)
+        assert back.evaluation.robustness == error.evaluation.robustness == -1.0
+    else:
+        assert vars(back) == vars(error)
+    if isinstance(error, mcs.NodeError):
+        assert isinstance(back, mcs.NodeError)
+        assert (back.name, back.exit_code, back.log_tail) == ("world", 3, "boom\n")
 
 
 def test_a_zeromq_error_becomes_a_transport_error_naming_the_endpoint() -> None:

@@ -34,7 +34,7 @@ from ..px4._config import (
 
 _LAZY = {
     "BACKENDS": "._simulator",
-    "FIDELITIES": "._simulator",
+    "FIRMWARE_FIDELITIES": "._simulator",
     "ArduPilotComponent": "._simulator",
     "ArduPilotNode": "._simulator",
     "ArduPilotSimulation": "._simulator",
@@ -48,7 +48,7 @@ _LAZY = {
 
 __all__ = [
     "BACKENDS",
-    "FIDELITIES",
+    "FIRMWARE_FIDELITIES",
     "SITL",
     "ArduPilotComponent",
     "ArduPilotNode",
@@ -72,7 +72,7 @@ if TYPE_CHECKING:
     from ._launch import SITL
     from ._simulator import (
         BACKENDS,
-        FIDELITIES,
+        FIRMWARE_FIDELITIES,
         ArduPilotComponent,
         ArduPilotNode,
         ArduPilotSimulation,
@@ -84,7 +84,15 @@ if TYPE_CHECKING:
     )
 
 
+# Former names, kept as deprecated aliases: old name -> new name.
+_DEPRECATED = {"FIDELITIES": "FIRMWARE_FIDELITIES"}
+
+
 def __getattr__(name: str) -> Any:
+    if name in _DEPRECATED:
+        from .._deps import renamed
+
+        return __getattr__(renamed(__name__, name, _DEPRECATED))
     module = _LAZY.get(name)
     if module is None:
         raise AttributeError(f"module 'multicosim.ardupilot' has no attribute {name!r}")

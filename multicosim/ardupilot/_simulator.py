@@ -18,10 +18,10 @@ from __future__ import annotations
 
 import dataclasses
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Literal, cast
+from typing import TYPE_CHECKING, Any, cast
 
 from .._errors import ConfigurationError, NodeStartError
-from .._fidelity import BACKENDS, Backend
+from .._fidelity import BACKENDS, FIRMWARE_FIDELITIES, Backend, FirmwareFidelity
 from .._interfaces import Component, Node, NodeId
 from .._local import (
     InProcessComponent,
@@ -56,7 +56,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "BACKENDS",
-    "FIDELITIES",
+    "FIRMWARE_FIDELITIES",
     "ArduPilotComponent",
     "ArduPilotNode",
     "ArduPilotSimulation",
@@ -68,8 +68,7 @@ __all__ = [
     "frame_period",
 ]
 
-Fidelity = Literal["medium", "high"]
-FIDELITIES: tuple[Fidelity, ...] = ("medium", "high")
+Fidelity = FirmwareFidelity
 FRAME_PERIOD = 1.0 / FRAME_RATE
 BOOT_STEP = 0.05  # s of simulated time between looks at ArduPilot's MAVLink link at start
 BOOT_LIMIT = 10.0  # s of simulated time ArduPilot gets to start speaking MAVLink
@@ -106,7 +105,7 @@ def frame_period(world: WorldConfig) -> float:
 
 
 def _check_fidelity(fidelity: object) -> None:
-    if fidelity not in FIDELITIES:
+    if fidelity not in FIRMWARE_FIDELITIES:
         raise ConfigurationError(
             "fidelity",
             fidelity,

@@ -26,7 +26,7 @@ from ._commander import Commander
 from ._commands import Commands
 from ._config import Topics
 from ._control import MultirotorController
-from ._estimator import Estimator
+from ._estimator import HGT_REF_BARO, HGT_REF_GNSS, Estimator
 from ._failures import Failures
 from ._hil import HilGps, HilSensor, MavlinkPacket, Truth, Wire, pack, unpack
 from ._mav import MainMode, Mode, SubMode, decode_frames, dialect, new_link
@@ -169,6 +169,9 @@ class Autopilot(Commander, Navigator, Failures, Commands, ParamServer, Missions,
     def step(self, ctx: StepContext) -> None:
         """One autopilot cycle: sensors, ground station, commander, navigator, control."""
         self._now = ctx.time
+        # EKF2_HGT_REF may change in flight; without a range finder or vision (2, 3), PX4
+        # falls back to the barometer.
+        self.est.height_ref = HGT_REF_GNSS if self.params["EKF2_HGT_REF"] == 1 else HGT_REF_BARO
         for sub, native in self._subs:
             if sub._deliveries:
                 for payload in sub.messages:

@@ -4,7 +4,12 @@ Attitude: gyro integration (quaternion, body FRD to NED) corrected towards the s
 the GPS velocity implies (the DCM approach: over each GPS interval, integrated specific force
 must equal the change of GPS velocity minus gravity), or towards gravity when no GPS is
 fresh, and towards the magnetometer heading. Position/velocity: accelerations rotated to NED
-and integrated, pulled towards GPS position and velocity and towards barometric height.
+and integrated, pulled towards GPS position and velocity and towards the height reference.
+
+Height, as PX4's EKF2 with ``EKF2_HGT_REF``: from GNSS (1, PX4's default) with the barometer
+as an aid whose offset from GNSS height is tracked (EKF2's height bias), so a barometer that
+walks away (weather, a spoof) barely moves the estimate; or from the barometer (0), GNSS
+height then taking over only while the barometer is missing or disagrees with it.
 
 Because GPS corrects position and velocity directly, a corrupted GPS (spoofing, noise
 attacks) really misleads the estimate, as it misleads PX4's EKF2. Scalar math only.
@@ -23,9 +28,16 @@ __all__ = ["Estimator", "rotation_matrix"]
 K_GPS_POS = 0.25  # 10 Hz
 K_GPS_VEL = 0.35
 K_GPS_VEL_FROM_POS = 0.1
+# The vertical loop of GNSS height as stiff as barometric height's (K_BARO_VEL at 50 Hz).
+K_GPS_VEL_FROM_POS_Z = 0.05
 K_BARO_POS = 0.04  # 50 Hz
 K_BARO_VEL = 0.01
 K_BARO_VEL_ALONE = 0.05  # without GPS, the barometer alone damps the vertical speed
+# With GNSS height the barometer aids weakly (PX4 weighs it by EKF2_BARO_NOISE 3.5 m against
+# GNSS's 0.5 m) and its bias follows GNSS height within a few seconds (50 Hz).
+K_BARO_AID = 0.004
+K_BARO_BIAS = 0.01
+HGT_REF_BARO, HGT_REF_GNSS = 0, 1
 MAG_GATE = 0.5  # rad: a heading innovation beyond this is rejected (a faulty magnetometer)
 STUCK_AFTER = 0.25  # s of bit-identical readings after which a sensor is taken as frozen
 K_TILT = 2.0  # rad/s per rad of tilt error
@@ -80,6 +92,9 @@ class Estimator:
         self._sf_time = 0.0
         self._last_gps_vel: tuple[float, float, float] | None = None
         self._baro_alt = 0.0
+        # EKF2_HGT_REF (the autopilot sets it from its parameter, which may change in flight).
+        self.height_ref = HGT_REF_GNSS
+        self._baro_bias = 0.0  # barometric height minus GNSS height (down), as tracked
         self._gps_d: float | None = None  # height (down) the last GPS fix gave
         self._baro_bad_since: float | None = None
         self.baro_rejected = False  # barometer inconsistent with GPS: height from GPS
@@ -212,14 +227,17 @@ class Estimator:
         )
 
     def _stuck(self, name: str, now: float, reading: object, moving: bool) -> bool:
-        """Whether a sensor repeats exactly the same reading while the vehicle moves.
+        """Whether a sensor repeats exactly the same reading where it cannot.
 
-        A reading that cannot change while the vehicle turns (magnetometer) or climbs
-        (barometer) is frozen; it is ignored, as PX4's sensor checks drop a stale sensor.
-        An ideal sensor on a still vehicle repeats itself legitimately.
+        A reading that cannot repeat while the vehicle turns (magnetometer) or climbs
+        (barometer), or while the gyro shows noise (a real sensor's readings never repeat
+        bit for bit), is frozen; it is ignored, as PX4's sensor checks drop stale data. An
+        ideal sensor on a still vehicle repeats itself legitimately: the ideal gyro then
+        reads exactly zero.
         """
         last = self._last_reading.get(name)
-        if last is None or last[0] != reading or not moving:
+        noisy = self.rates != (0.0, 0.0, 0.0)
+        if last is None or last[0] != reading or not (moving or noisy):
             self._last_reading[name] = (reading, now)
             return False
         return now - last[1] > STUCK_AFTER
@@ -228,6 +246,8 @@ class Estimator:
         """Correct heading with a magnetometer sample (gauss, FRD)."""
         turning = max(abs(self.rates[0]), abs(self.rates[1]), abs(self.rates[2])) > 0.05
         if self._stuck("mag", now, m, turning):
+            # The last correction would otherwise keep turning the heading: gyro alone.
+            self._yaw_corr = 0.0
             return
         self.last_mag = now
         r = self.rotation()
@@ -253,10 +273,22 @@ class Estimator:
         if self.baro_offset is None or self.origin is None:
             return
         d_meas = -(pressure_alt - self.baro_offset - self.origin_alt)
+        gps_fresh = self._gps_d is not None and now - self.last_gps < GPS_TIMEOUT
+        if self.height_ref == HGT_REF_GNSS:
+            err = d_meas - self._baro_bias - self.pos[2]
+            if gps_fresh:
+                # An aid: the bias takes up what the barometer says beyond GNSS height.
+                self._baro_bias += K_BARO_BIAS * err
+                self.pos[2] += K_BARO_AID * err
+            else:
+                # GNSS height lost: the barometer carries on from the bias it had.
+                self.pos[2] += K_BARO_POS * err
+                self.vel[2] += K_BARO_VEL_ALONE * err
+            return
         # A stuck or wrong barometer disagrees with GPS for a while: stop fusing it then,
         # as PX4's EKF2 does with its height sources.
         gps_d = self._gps_d
-        if gps_d is not None and now - self.last_gps < GPS_TIMEOUT and abs(d_meas - gps_d) > 8.0:
+        if gps_d is not None and gps_fresh and abs(d_meas - gps_d) > 8.0:
             if self._baro_bad_since is None:
                 self._baro_bad_since = now
             elif now - self._baro_bad_since > 2.0:
@@ -316,9 +348,13 @@ class Estimator:
         vel[0] += K_GPS_VEL * (vn - vel[0]) + K_GPS_VEL_FROM_POS * en
         vel[1] += K_GPS_VEL * (ve - vel[1]) + K_GPS_VEL_FROM_POS * ee
         vel[2] += K_GPS_VEL * 0.5 * (vd - vel[2])
-        self._gps_d = self.origin_alt - alt
-        if self.last_baro < 0 or now - self.last_baro > 1.0 or self.baro_rejected:
-            pos[2] += K_GPS_POS * (self.origin_alt - alt - pos[2])
+        gps_d = self._gps_d = self.origin_alt - alt
+        baro_out = self.last_baro < 0 or now - self.last_baro > 1.0 or self.baro_rejected
+        if self.height_ref == HGT_REF_GNSS or baro_out:
+            ed = gps_d - pos[2]
+            pos[2] += K_GPS_POS * ed
+            if self.height_ref == HGT_REF_GNSS:
+                vel[2] += K_GPS_VEL_FROM_POS_Z * ed
         last = self._last_gps_vel
         if fresh and last is not None and self._sf_time > 0.02:
             t = self._sf_time

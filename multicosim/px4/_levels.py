@@ -26,6 +26,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from .._errors import ConfigurationError
+from .._fidelity import FIRMWARE_FIDELITIES
 from ._real import SITL
 
 if TYPE_CHECKING:
@@ -36,9 +37,6 @@ __all__ = ["SITL_LEVEL", "sitl_level"]
 
 SITL_LEVEL = "px4-sitl"
 """The default name of the real-PX4 level (in results, statistics and trace directories)."""
-
-# Real PX4 flies the MuJoCo world: medium (a local process) or high (with backend="docker").
-_REAL_FIDELITIES = ("medium", "high")
 
 
 class _OnSITL:
@@ -76,9 +74,9 @@ def sitl_level(
 
     if not isinstance(firmware, SITL):
         raise ConfigurationError("firmware", firmware, "a px4.SITL(binary=...) or SITL(image=...)")
-    if fidelity not in _REAL_FIDELITIES:
+    if fidelity not in FIRMWARE_FIDELITIES:
         raise ConfigurationError(
-            "fidelity", fidelity, f"one of {_REAL_FIDELITIES}: real PX4 flies the MuJoCo world"
+            "fidelity", fidelity, f"one of {FIRMWARE_FIDELITIES}: real PX4 flies the MuJoCo world"
         )
     allowed = "a function simulate(sample, fidelity, seed, firmware=None)"
     if not callable(simulate):

@@ -10,7 +10,7 @@ import multicosim.px4 as px4
 
 EXPECTED = {
     "BACKENDS",
-    "FIDELITIES",
+    "FIRMWARE_FIDELITIES",
     "SITL",
     "ArduPilotComponent",
     "ArduPilotNode",
@@ -51,3 +51,14 @@ def test_import_stays_light() -> None:
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
+
+
+def test_the_former_name_of_the_firmware_levels_warns() -> None:
+    import pytest
+
+    import multicosim as mcs
+
+    with pytest.warns(DeprecationWarning, match="FIRMWARE_FIDELITIES"):
+        levels = ardupilot.FIDELITIES
+    assert levels == ardupilot.FIRMWARE_FIDELITIES == ("medium", "high")
+    assert set(levels) < set(mcs.FIDELITIES)

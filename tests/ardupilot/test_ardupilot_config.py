@@ -109,7 +109,7 @@ def test_an_image_runs_on_the_docker_backend_only() -> None:
 
 def test_default_worlds_step_at_arducopters_loop_rate(tmp_path: Path) -> None:
     fake_ardupilot(tmp_path)
-    for fidelity in ardupilot.FIDELITIES:
+    for fidelity in ardupilot.FIRMWARE_FIDELITIES:
         simulator = ardupilot.Rover(fidelity=fidelity, firmware_dir=str(tmp_path))
         assert simulator.world.period == pytest.approx(1 / 400)
         assert simulator.world == dataclasses.replace(

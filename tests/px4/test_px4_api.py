@@ -144,6 +144,30 @@ def test_spoofed_gps_misleads_the_estimator() -> None:
     assert true_n == pytest.approx(-25.0, abs=3.0)
 
 
+@pytest.mark.parametrize(
+    ("height_ref", "descends"),
+    [(None, False), (1, False), (0, True)],
+    ids=["default", "gnss", "baro"],
+)
+def test_the_height_reference_follows_ekf2_hgt_ref(height_ref: int | None, descends: bool) -> None:
+    import multicosim.attacks as attacks
+
+    # A barometer reading 8 m high from 12 s on: PX4's default takes height from GNSS and
+    # only tracks the barometer's offset; with EKF2_HGT_REF 0 the barometer is the height.
+    params = {} if height_ref is None else {"EKF2_HGT_REF": float(height_ref)}
+    simulator = px4.PX4(fidelity="low", params=params)
+    attacks.inject(simulator, "baro", [attacks.Jump(offset=8.0, start=12.0, ramp=4.0)])
+    with simulator.start() as sim:
+        result = sim.firmware.send(px4.Configuration([wp(0, 40, 10), wp(40, 40, 10)], end="hold"))
+    cruising = [s.true_alt for s in result.trajectory if s.current >= 1]
+    if descends:
+        # It believes the barometer: down by the spoof, onto the ground.
+        assert min(cruising) < 3.0
+    else:
+        assert min(cruising) > 9.0
+        assert max(abs(s.alt - s.true_alt) for s in result.trajectory) < 0.5
+
+
 def test_sensor_topics_carry_mavlink_frames_at_medium_wire() -> None:
     from multicosim.px4._hil import HilSensor, pack, read, unpack
 
