@@ -15,6 +15,12 @@ import pytest
 for _name in ("numpy", "zmq", "mujoco", "matplotlib.figure", "docker", "multicosim._local"):
     importlib.import_module(_name)
 
+# A suite started as a background job (``cmd &`` without job control) inherits SIGINT
+# ignored, and so would every program it starts: the tests that press Ctrl-C on one would
+# press it for nothing. A handler here is not inherited across exec, so they get the default.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+
 
 @pytest.fixture
 def no_leaks() -> Iterator[None]:
