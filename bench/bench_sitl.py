@@ -18,7 +18,6 @@ result says so. Usage: ``python bench/bench_sitl.py [--quick]``; prints a table 
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import random
 import statistics
@@ -69,13 +68,7 @@ def fly(
 
 def path_distance(a: px4.MissionResult, b: px4.MissionResult) -> tuple[float, float]:
     """Mean and max horizontal distance (m) from each airborne point of ``a`` to ``b``'s path."""
-
-    def track(r: px4.MissionResult) -> list[tuple[float, float]]:
-        return [PROJ.project(s.true_lat, s.true_lon) for s in r.trajectory if s.true_alt > 0.5]
-
-    ta, tb = track(a), track(b)
-    gaps = [min(math.dist(p, q) for q in tb) for p in ta]
-    return statistics.fmean(gaps), max(gaps)
+    return a.path_gap(b)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -144,11 +144,9 @@ def test_same_seed_gives_the_same_trajectory(
         return
     # Real PX4 runs its modules as threads: its lockstep clock is ours, but which thread
     # answers first is not, so a replay is close, not bit-for-bit.
+    # One may also take off a moment later than the other: compare where they flew.
     a, b = results
     assert [r.index for r in a.reached] == [r.index for r in b.reached]
     assert a.duration == pytest.approx(b.duration, abs=2.0)
-    by_time = {round(s.time, 2): s for s in b.trajectory}
-    common = [(s, by_time[round(s.time, 2)]) for s in a.trajectory if round(s.time, 2) in by_time]
-    assert len(common) > len(a.trajectory) // 2
-    gap = max(math.dist(true_ne(s), true_ne(t)) for s, t in common)
+    gap = max(a.path_gap(b)[1], b.path_gap(a)[1])
     assert gap < 1.0, f"replays with seed {mcs_seed} parted by {gap:.2f} m"

@@ -227,3 +227,27 @@ class MissionResult(msgspec.Struct, frozen=True, kw_only=True):
     def duration(self) -> float:
         """Simulated seconds the mission took."""
         return self.end_time - self.start_time
+
+    def path_gap(self, other: MissionResult, *, above: float = 0.5) -> tuple[float, float]:
+        """Mean and max horizontal distance (m) from this flight's true path to ``other``'s.
+
+        Each true position more than ``above`` m up is measured to the nearest airborne true
+        position of ``other``: how far apart two flights went, whenever each got there.
+        """
+        if not self.trajectory or not other.trajectory:
+            raise ConfigurationError("trajectory", [], "two flights with samples")
+        first = self.trajectory[0]
+        projection = LocalProjection(first.true_lat, first.true_lon)
+
+        def track(result: MissionResult) -> list[tuple[float, float]]:
+            return [
+                projection.project(s.true_lat, s.true_lon)
+                for s in result.trajectory
+                if s.true_alt > above
+            ]
+
+        mine, theirs = track(self), track(other)
+        if not mine or not theirs:
+            raise ConfigurationError("trajectory", [], f"flights that rose above {above:g} m")
+        gaps = [min(math.dist(p, q) for q in theirs) for p in mine]
+        return sum(gaps) / len(gaps), max(gaps)

@@ -190,3 +190,18 @@ def test_generated_missions_complete_at_low_fidelity(config: px4.Configuration) 
     assert result.completed, result.reason
     assert [r.index for r in result.reached] == list(range(len(config.mission)))
     assert min(s.true_alt for s in result.trajectory) > -0.3
+
+
+def test_path_gap_measures_where_two_flights_went() -> None:
+    config = px4.Configuration([wp(20, 0, 8)], end="hold")
+    with px4.PX4(fidelity="low").start() as sim:
+        north = sim.firmware.send(config)
+    with px4.PX4(fidelity="low").start() as sim:
+        east = sim.firmware.send(px4.Configuration([wp(0, 20, 8)], end="hold"))
+    assert north.path_gap(north) == (0.0, 0.0)
+    mean, worst = north.path_gap(east)
+    # The far end of one leg is about 20 m from the nearest point of the other (its start).
+    assert worst == pytest.approx(20.0, abs=3.0)
+    assert 0.0 < mean < worst
+    with pytest.raises(mcs.ConfigurationError, match="above"):
+        north.path_gap(east, above=100.0)
