@@ -110,6 +110,11 @@ def test_px4_gps_dropout_triggers_the_failsafe(px4_simulator: px4.PX4, gps_noise
     assert result.landed
     assert not result.armed
     assert min(s.true_alt for s in result.trajectory) > -0.3
+    # Blind, PX4 descends (Descend) at MPC_LAND_SPEED (0.7 m/s) all the way, not at
+    # MPC_Z_V_AUTO_DN (1.5 m/s) as it lands with a position.
+    high = [s for s in result.trajectory if s.time > failsafe.time + 2.0 and s.true_alt > 2.0]
+    rate = (high[0].true_alt - high[-1].true_alt) / (high[-1].time - high[0].time)
+    assert rate == pytest.approx(0.7, abs=0.15)
 
 
 # -- the rover ------------------------------------------------------------------------------

@@ -193,6 +193,7 @@ class Autopilot(Commander, Navigator, Failures, Commands, ParamServer, Missions,
         if self._param_queue:
             self._param_tick()
         self._commander()
+        self.est.in_air = not self.landed
         out = self._navigate_and_control()
         ctx.publish(self.spec.topics.actuators, pack(out) if self.spec.wire == "mavlink" else out)
         self._stream()

@@ -43,6 +43,7 @@ STUCK_AFTER = 0.25  # s of bit-identical readings after which a sensor is taken 
 K_TILT = 2.0  # rad/s per rad of tilt error
 K_YAW = 0.6
 GPS_TIMEOUT = 0.5
+MAG_TIMEOUT = 0.2  # s: the magnetometer's correction lapses when no sample came for this long
 
 
 def rotation_matrix(w: float, x: float, y: float, z: float) -> tuple[float, ...]:
@@ -87,6 +88,7 @@ class Estimator:
         self.gps_raw = (0, 0, 0, 0, 0, 0, 0)  # lat, lon, alt (mm), eph, epv, vel, cog
         self.gps_ok_since: float | None = None
         self._tilt_corr = (0.0, 0.0, 0.0)  # NED rotation rate, applied between GPS fixes
+        self._tilt_until = 0.0  # when the tilt correction lapses
         self._yaw_corr = 0.0
         self._sf_int = [0.0, 0.0, 0.0]
         self._sf_time = 0.0
@@ -100,6 +102,8 @@ class Estimator:
         self.baro_rejected = False  # barometer inconsistent with GPS: height from GPS
         self._last_reading: dict[str, tuple[object, float]] = {}
         self._acc_b = (0.0, 0.0, -GRAVITY)
+        # Whether the vehicle flies (the autopilot's land detector says, as EKF2's in_air).
+        self.in_air = False
 
     # -- derived state ----------------------------------------------------------------------
 
@@ -153,7 +157,13 @@ class Estimator:
             return
         if dt <= 0.0 or dt > 0.2:
             return
-        # Corrections are rotation rates in NED; turn them into body rates.
+        # Corrections are rotation rates in NED, each applied until its sensor's next sample
+        # is due: a sensor that falls silent must not leave its last correction turning the
+        # estimate (the gyro alone then carries the attitude).
+        if now > self._tilt_until:
+            self._tilt_corr = (0.0, 0.0, 0.0)
+        if now - self.last_mag > MAG_TIMEOUT:
+            self._yaw_corr = 0.0
         r = self.rotation()
         cx, cy, cz = self._tilt_corr
         cz += self._yaw_corr
@@ -181,9 +191,13 @@ class Estimator:
         sf[1] += fe * dt
         sf[2] += fd * dt
         self._sf_time += dt
-        if now - self.last_gps > GPS_TIMEOUT:
-            # No GPS to tell acceleration from tilt: assume the specific force is -gravity.
-            self._tilt_from(fn, fe, fd, 0.0, 0.0, -GRAVITY, K_TILT * 0.5)
+        # Without GPS to tell acceleration from tilt, the specific force is taken for gravity,
+        # but only on the ground: in flight the accelerometer reads the thrust along the body
+        # axis whatever the tilt, and taken for gravity it would pull the estimate level through
+        # every turn and leave the vehicle flying tilted. Without aiding, PX4's EKF2 too keeps
+        # the tilt its gyros give in the air (its fake position fuses at 10 m noise).
+        if now - self.last_gps > GPS_TIMEOUT and not self.in_air:
+            self._tilt_from(fn, fe, fd, 0.0, 0.0, -GRAVITY, K_TILT * 0.5, now + 2.0 * dt)
         vel, pos = self.vel, self.pos
         vel[0] += fn * dt
         vel[1] += fe * dt
@@ -211,15 +225,25 @@ class Estimator:
         ]
 
     def _tilt_from(
-        self, fn: float, fe: float, fd: float, en: float, ee: float, ed: float, gain: float
+        self,
+        fn: float,
+        fe: float,
+        fd: float,
+        en: float,
+        ee: float,
+        ed: float,
+        gain: float,
+        until: float,
     ) -> None:
-        # Rotation (NED) that turns the measured specific force towards the expected one.
+        # Rotation (NED), applied until ``until``, that turns the measured specific force
+        # towards the expected one.
         nf = math.sqrt(fn * fn + fe * fe + fd * fd)
         ne = math.sqrt(en * en + ee * ee + ed * ed)
         if nf < 1e-6 or ne < 1e-6:
             return
         fn, fe, fd = fn / nf, fe / nf, fd / nf
         en, ee, ed = en / ne, ee / ne, ed / ne
+        self._tilt_until = until
         self._tilt_corr = (
             gain * (fe * ed - fd * ee),
             gain * (fd * en - fn * ed),
@@ -246,9 +270,7 @@ class Estimator:
         """Correct heading with a magnetometer sample (gauss, FRD)."""
         turning = max(abs(self.rates[0]), abs(self.rates[1]), abs(self.rates[2])) > 0.05
         if self._stuck("mag", now, m, turning):
-            # The last correction would otherwise keep turning the heading: gyro alone.
-            self._yaw_corr = 0.0
-            return
+            return  # its correction lapses (MAG_TIMEOUT): gyro alone
         self.last_mag = now
         r = self.rotation()
         mn = r[0] * m[0] + r[1] * m[1] + r[2] * m[2]
@@ -368,6 +390,7 @@ class Estimator:
                 ve - last[1],
                 vd - last[2] - GRAVITY * t,
                 K_TILT,
+                now + 1.5 * t,  # till the next fix is due, with some jitter
             )
         self._reset_sf(vn, ve, vd)
 

@@ -102,6 +102,9 @@ class Navigator(State):
             self._text("Mission finished")
 
     def _land_speed(self) -> float:
+        if self.failsafe is not None or not self.est.position_ok(self._now):
+            # Blind, PX4 descends (its Descend mode) at the landing speed all the way down.
+            return self.params["MPC_LAND_SPEED"]
         height = self._home_d() - self.est.pos[2]
         if height > self.params["MPC_LAND_ALT2"]:
             return self.params["MPC_Z_V_AUTO_DN"]
@@ -412,9 +415,12 @@ class Navigator(State):
         vel = est.vel
         if self.failsafe is not None or not est.position_ok(self._now):
             # No position: a blind descent, level, on the vertical speed alone (the horizontal
-            # velocity estimate drifts without GPS).
+            # velocity estimate drifts without GPS). Level as PX4's Descend, which asks for no
+            # horizontal acceleration: the tilt the integrator learnt against drag at cruise
+            # would otherwise keep the vehicle flying on.
             vel_sp = (0.0, 0.0, vel_sp[2])
             vel = [0.0, 0.0, est.vel[2]]
+            self.ctl.vel_int[0] = self.ctl.vel_int[1] = 0.0
         self._vz_sp = vel_sp[2]
         self._vel_sp = vel_sp
         if self.velocity_vehicle:

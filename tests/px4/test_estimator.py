@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-from multicosim.geo import GRAVITY
+from multicosim.geo import GRAVITY, LocalProjection
 from multicosim.px4._estimator import Estimator
 
 
@@ -28,3 +28,43 @@ def test_a_frozen_compass_leaves_the_heading_to_the_gyro() -> None:
     # The frozen reading is dropped within a quarter of a second and nothing keeps turning
     # the heading after it: it stays near where it was.
     assert abs(heading) < 0.1, heading
+
+
+def test_a_silent_compass_leaves_the_heading_to_the_gyro() -> None:
+    est = Estimator()
+    rate, now = 250, 0.0
+    for k in range(10 * rate):
+        now = k / rate
+        est.imu(now, 1 / rate, (0.0, 0.0, -GRAVITY), (0.0, 0.0, 0.0))
+        if k % 5 == 0 and now < 1.1:
+            # Heading 0 for a second, a tenth of a second 0.3 rad off, then no compass at all.
+            est.mag(now, _field(0.0) if now < 1.0 else _field(0.3))
+    # The last correction lapses with its sensor: the heading does not keep turning.
+    assert abs(est.euler()[2]) < 0.1, est.euler()[2]
+
+
+def test_losing_gps_in_a_banked_turn_keeps_the_tilt_the_gyros_give() -> None:
+    # A drag-free multirotor banked 10 degrees, accelerating east: its accelerometer reads
+    # only the thrust along its body axis, as if it were level under a stronger gravity.
+    roll = math.radians(10.0)
+    c, s = math.cos(roll), math.sin(roll)
+    accel = GRAVITY * math.tan(roll)
+    origin = LocalProjection(47.0, 8.0)
+    est = Estimator()
+    est.in_air = True
+    rate = 250
+    for k in range(15 * rate):
+        now = k / rate
+        est.imu(now, 1 / rate, (0.0, 0.0, -GRAVITY / c), (0.0, 0.0, 0.0))
+        if k % 5 == 0:
+            est.mag(now, (0.2, s * 0.4, c * 0.4))  # the field (north, down) seen banked
+        if k % 25 == 0 and now < 5.0:  # 10 Hz GPS for 5 s, then none
+            lat, lon = origin.reproject(0.0, 0.5 * accel * now * now)
+            est.gps(
+                now, round(lat * 1e7), round(lon * 1e7), 0, (0, round(accel * now * 100), 0), 3, 10
+            )
+        if k == 5 * rate - 1:
+            assert abs(est.euler()[0] - roll) < math.radians(1.0), est.euler()
+    # Ten seconds without GPS: the estimate still knows the vehicle banks (taken for gravity,
+    # the accelerometer would have levelled it and the controller would fly on tilted).
+    assert abs(est.euler()[0] - roll) < math.radians(1.0), est.euler()
