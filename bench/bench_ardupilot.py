@@ -32,7 +32,6 @@ from typing import Any
 import msgspec
 from _common import time_steps, write_result
 from bench_px4 import PROJ, mission
-from bench_sitl import path_distance
 
 import multicosim.ardupilot as ardupilot
 import multicosim.px4 as px4
@@ -144,7 +143,7 @@ def main(argv: list[str] | None = None) -> int:
     pairs: dict[str, Any] = {}
     for i, a in enumerate(names):
         for b in names[i + 1 :]:
-            mean, worst = path_distance(flights[a], flights[b])
+            mean, worst = flights[a].path_gap(flights[b])
             pairs[f"{a} vs {b}"] = {"mean_distance_m": mean, "max_distance_m": worst}
 
     out = {"speed": speed, "side_by_side": {"autopilots": compared, "paths": pairs}}

@@ -66,11 +66,6 @@ def fly(
     return result, times
 
 
-def path_distance(a: px4.MissionResult, b: px4.MissionResult) -> tuple[float, float]:
-    """Mean and max horizontal distance (m) from each airborne point of ``a`` to ``b``'s path."""
-    return a.path_gap(b)
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--px4-binary", default=os.environ.get("MCS_PX4_BINARY"))
@@ -108,7 +103,7 @@ def main(argv: list[str] | None = None) -> int:
         row["real PX4"] = {"duration_s": ref.duration, "wall_s": ref_times["send_s"]}
         for level in ("low", "medium"):
             got, times = fly(config, level, None)
-            mean, worst = path_distance(got, ref)
+            mean, worst = got.path_gap(ref)
             row[level] = {
                 "duration_s": got.duration,
                 "wall_s": times["send_s"],
