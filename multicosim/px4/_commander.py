@@ -213,7 +213,11 @@ class Commander(State):
             self._item_reached()
 
     def _position_failsafe(self) -> None:
-        """Without GPS, PX4 dead-reckons EKF2_NOAID_TOUT, then fails over after COM_POS_FS_DELAY."""
+        """Without GPS, PX4 dead-reckons EKF2_NOAID_TOUT, then fails over.
+
+        Its estimator then marks the position invalid and the commander drops it at once
+        (COM_POS_FS_DELAY only ages out a position that stops arriving at all).
+        """
         now, est, p = self._now, self.est, self.params
         if self.landed or self.failsafe is not None:
             return
@@ -224,7 +228,7 @@ class Commander(State):
         if self._pos_lost_at is None:
             self._pos_lost_at = max(est.last_gps, 0.0)
         lost_for = now - self._pos_lost_at
-        if lost_for < p["EKF2_NOAID_TOUT"] * 1e-6 + p["COM_POS_FS_DELAY"]:
+        if lost_for < p["EKF2_NOAID_TOUT"] * 1e-6:
             return
         if self.mode in (Mode.MANUAL, Mode.ALTCTL, Mode.ACRO, Mode.STABILIZED):
             return  # these modes need no position
