@@ -111,7 +111,6 @@ class Autopilot(Commander, Navigator, Failures, Commands, ParamServer, Missions,
         self._landed_at = None
         self._ground_d = 0.0
         self._touch_since = None
-        self._pos_lost_at = None
         self.home = None
         # Navigator state.
         self.mission = []
@@ -172,6 +171,7 @@ class Autopilot(Commander, Navigator, Failures, Commands, ParamServer, Missions,
         # EKF2_HGT_REF may change in flight; without a range finder or vision (2, 3), PX4
         # falls back to the barometer.
         self.est.height_ref = HGT_REF_GNSS if self.params["EKF2_HGT_REF"] == 1 else HGT_REF_BARO
+        self.est.noaid_timeout = self.params["EKF2_NOAID_TOUT"] * 1e-6
         for sub, native in self._subs:
             if sub._deliveries:
                 for payload in sub.messages:

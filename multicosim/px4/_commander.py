@@ -64,7 +64,6 @@ class Commander(State):
         self._armed_at = self._now
         self._flew = False
         self.failsafe = None
-        self._pos_lost_at = None
         self._set_home()
         self._hold = (self.est.pos[0], self.est.pos[1], self.est.pos[2])
         self._ground_d = self.est.pos[2]
@@ -218,17 +217,7 @@ class Commander(State):
         Its estimator then marks the position invalid and the commander drops it at once
         (COM_POS_FS_DELAY only ages out a position that stops arriving at all).
         """
-        now, est, p = self._now, self.est, self.params
-        if self.landed or self.failsafe is not None:
-            return
-        gps_ok = est.gps_fix >= 3 and now - est.last_gps <= 0.5
-        if gps_ok:
-            self._pos_lost_at = None
-            return
-        if self._pos_lost_at is None:
-            self._pos_lost_at = max(est.last_gps, 0.0)
-        lost_for = now - self._pos_lost_at
-        if lost_for < p["EKF2_NOAID_TOUT"] * 1e-6:
+        if self.landed or self.failsafe is not None or self.est.position_ok(self._now):
             return
         if self.mode in (Mode.MANUAL, Mode.ALTCTL, Mode.ACRO, Mode.STABILIZED):
             return  # these modes need no position

@@ -104,6 +104,10 @@ class Estimator:
         self._acc_b = (0.0, 0.0, -GRAVITY)
         # Whether the vehicle flies (the autopilot's land detector says, as EKF2's in_air).
         self.in_air = False
+        # How long the IMU alone may carry the position on (s; EKF2_NOAID_TOUT, set by the
+        # autopilot), and when a settled GPS fix last aided it.
+        self.noaid_timeout = 5.0
+        self.last_aided = -math.inf
 
     # -- derived state ----------------------------------------------------------------------
 
@@ -124,13 +128,14 @@ class Estimator:
         return self.gps_fix >= 3 and self.gps_sats >= 6 and now - self.last_gps < GPS_TIMEOUT
 
     def position_ok(self, now: float) -> bool:
-        """Horizontal position is GPS-aided and has settled (2 s of good fixes)."""
-        return (
-            self.origin is not None
-            and self.gps_ok(now)
-            and self.gps_ok_since is not None
-            and now - self.gps_ok_since >= 2.0
-        )
+        """Horizontal position is GPS-aided and has settled (2 s of good fixes), or, in flight,
+        the IMU has carried it on from such a fix for less than ``noaid_timeout`` (PX4's dead
+        reckoning)."""
+        if self.origin is None:
+            return False
+        if self.gps_ok(now) and self.gps_ok_since is not None and now - self.gps_ok_since >= 2.0:
+            return True
+        return self.in_air and now - self.last_aided < self.noaid_timeout
 
     def global_position(self) -> tuple[float, float, float]:
         """Latitude, longitude (deg) and altitude AMSL (m) of the estimate."""
@@ -362,6 +367,8 @@ class Estimator:
             self.vel = [vn, ve, vd]
             self._reset_sf(vn, ve, vd)
             return
+        if now - self.gps_ok_since >= 2.0:
+            self.last_aided = now
         n, e = self.origin.project(lat, lon)
         pos, vel = self.pos, self.vel
         en, ee = n - pos[0], e - pos[1]

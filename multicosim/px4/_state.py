@@ -111,7 +111,6 @@ class State:
     _landed_at: float | None
     _ground_d: float
     _touch_since: float | None
-    _pos_lost_at: float | None
     home: Home | None
     # Navigator.
     mission: list[Item]

@@ -68,3 +68,29 @@ def test_losing_gps_in_a_banked_turn_keeps_the_tilt_the_gyros_give() -> None:
     # Ten seconds without GPS: the estimate still knows the vehicle banks (taken for gravity,
     # the accelerometer would have levelled it and the controller would fly on tilted).
     assert abs(est.euler()[0] - roll) < math.radians(1.0), est.euler()
+
+
+def test_in_flight_the_imu_carries_the_position_for_ekf2_noaid_tout() -> None:
+    origin = LocalProjection(47.0, 8.0)
+    lat, lon = origin.reproject(0.0, 0.0)
+
+    def fly(in_air: bool) -> list[bool]:
+        est = Estimator()
+        est.in_air, est.noaid_timeout = in_air, 5.0
+        rate = 250
+        seen = []
+        for k in range(10 * rate):
+            now = k / rate
+            est.imu(now, 1 / rate, (0.0, 0.0, -GRAVITY), (0.0, 0.0, 0.0))
+            if k % 5 == 0:
+                est.mag(now, _field(0.0))
+            if k % 25 == 0 and now < 3.0:  # 3 s of GPS (settled after 2), then none
+                est.gps(now, round(lat * 1e7), round(lon * 1e7), 0, (0, 0, 0), 3, 10)
+            if k % rate == 0:
+                seen.append(est.position_ok(now))
+        return seen
+
+    # Settled 2 s after the first fix; the last fix at 2.9 s carries the position to 7.9 s in
+    # the air, and on the ground only while GPS is fresh (to 3.4 s).
+    assert fly(True) == [False, False, True, True, True, True, True, True, False, False]
+    assert fly(False) == [False, False, True, True, False, False, False, False, False, False]
