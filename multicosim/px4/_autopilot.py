@@ -26,7 +26,7 @@ from ._commander import Commander
 from ._commands import Commands
 from ._config import Topics
 from ._control import MultirotorController
-from ._estimator import HGT_REF_BARO, HGT_REF_GNSS, Estimator
+from ._estimator import Estimator
 from ._failures import Failures
 from ._hil import HilGps, HilSensor, MavlinkPacket, Truth, Wire, pack, unpack
 from ._mav import MainMode, Mode, SubMode, decode_frames, dialect, new_link
@@ -86,7 +86,7 @@ class Autopilot(Commander, Navigator, Failures, Commands, ParamServer, Missions,
         self.spec = spec = spec or AutopilotSpec()
         self.period = spec.period
         self.params = Params(spec.params)
-        self.est = Estimator(spec.mag_declination)
+        self.est = Estimator(spec.mag_declination, self.params)
         self.ctl = MultirotorController()
         self.velocity_vehicle = spec.airframe == "point_mass"
         self._d = dialect()
@@ -168,10 +168,6 @@ class Autopilot(Commander, Navigator, Failures, Commands, ParamServer, Missions,
     def step(self, ctx: StepContext) -> None:
         """One autopilot cycle: sensors, ground station, commander, navigator, control."""
         self._now = ctx.time
-        # EKF2_HGT_REF may change in flight; without a range finder or vision (2, 3), PX4
-        # falls back to the barometer.
-        self.est.height_ref = HGT_REF_GNSS if self.params["EKF2_HGT_REF"] == 1 else HGT_REF_BARO
-        self.est.noaid_timeout = self.params["EKF2_NOAID_TOUT"] * 1e-6
         for sub, native in self._subs:
             if sub._deliveries:
                 for payload in sub.messages:

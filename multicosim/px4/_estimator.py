@@ -3,8 +3,9 @@
 Attitude: gyro integration (quaternion, body FRD to NED) corrected towards the specific force
 the GPS velocity implies (the DCM approach: over each GPS interval, integrated specific force
 must equal the change of GPS velocity minus gravity), or towards gravity when no GPS is
-fresh, and towards the magnetometer heading. Position/velocity: accelerations rotated to NED
-and integrated, pulled towards GPS position and velocity and towards the height reference.
+fresh and the vehicle is on the ground, and towards the magnetometer heading.
+Position/velocity: accelerations rotated to NED and integrated, pulled towards GPS position
+and velocity and towards the height reference.
 
 Height, as PX4's EKF2 with ``EKF2_HGT_REF``: from GNSS (1, PX4's default) with the barometer
 as an aid whose offset from GNSS height is tracked (EKF2's height bias), so a barometer that
@@ -18,8 +19,10 @@ attacks) really misleads the estimate, as it misleads PX4's EKF2. Scalar math on
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 
 from ..geo import GRAVITY, LocalProjection
+from ._params import Params
 
 __all__ = ["Estimator", "rotation_matrix"]
 
@@ -37,7 +40,7 @@ K_BARO_VEL_ALONE = 0.05  # without GPS, the barometer alone damps the vertical s
 # GNSS's 0.5 m) and its bias follows GNSS height within a few seconds (50 Hz).
 K_BARO_AID = 0.004
 K_BARO_BIAS = 0.01
-HGT_REF_BARO, HGT_REF_GNSS = 0, 1
+HGT_REF_GNSS = 1  # EKF2_HGT_REF; anything else (no range finder, no vision here): barometer
 MAG_GATE = 0.5  # rad: a heading innovation beyond this is rejected (a faulty magnetometer)
 STUCK_AFTER = 0.25  # s of bit-identical readings after which a sensor is taken as frozen
 K_TILT = 2.0  # rad/s per rad of tilt error
@@ -68,9 +71,12 @@ def _wrap(a: float) -> float:
 class Estimator:
     """Attitude, local position/velocity (NED from the origin), WGS84 position, health."""
 
-    def __init__(self, declination: float = 0.0) -> None:
+    def __init__(self, declination: float = 0.0, params: Mapping[str, float] | None = None) -> None:
         # Magnetic declination (rad, east of north) where it flies; PX4 looks it up by position.
         self.declination = declination
+        # The autopilot's parameters (EKF2_HGT_REF, EKF2_NOAID_TOUT), read where used: they
+        # may change in flight.
+        self.params: Mapping[str, float] = Params() if params is None else params
         self.q = [1.0, 0.0, 0.0, 0.0]  # w, x, y, z
         self.pos = [0.0, 0.0, 0.0]
         self.vel = [0.0, 0.0, 0.0]
@@ -94,8 +100,6 @@ class Estimator:
         self._sf_time = 0.0
         self._last_gps_vel: tuple[float, float, float] | None = None
         self._baro_alt = 0.0
-        # EKF2_HGT_REF (the autopilot sets it from its parameter, which may change in flight).
-        self.height_ref = HGT_REF_GNSS
         self._baro_bias = 0.0  # barometric height minus GNSS height (down), as tracked
         self._gps_d: float | None = None  # height (down) the last GPS fix gave
         self._baro_bad_since: float | None = None
@@ -104,10 +108,7 @@ class Estimator:
         self._acc_b = (0.0, 0.0, -GRAVITY)
         # Whether the vehicle flies (the autopilot's land detector says, as EKF2's in_air).
         self.in_air = False
-        # How long the IMU alone may carry the position on (s; EKF2_NOAID_TOUT, set by the
-        # autopilot), and when a settled GPS fix last aided it.
-        self.noaid_timeout = 5.0
-        self.last_aided = -math.inf
+        self.last_aided = -math.inf  # when a settled GPS fix last aided the position
 
     # -- derived state ----------------------------------------------------------------------
 
@@ -129,13 +130,13 @@ class Estimator:
 
     def position_ok(self, now: float) -> bool:
         """Horizontal position is GPS-aided and has settled (2 s of good fixes), or, in flight,
-        the IMU has carried it on from such a fix for less than ``noaid_timeout`` (PX4's dead
+        the IMU has carried it on from such a fix for less than EKF2_NOAID_TOUT (PX4's dead
         reckoning)."""
         if self.origin is None:
             return False
         if self.gps_ok(now) and self.gps_ok_since is not None and now - self.gps_ok_since >= 2.0:
             return True
-        return self.in_air and now - self.last_aided < self.noaid_timeout
+        return self.in_air and now - self.last_aided < self.params["EKF2_NOAID_TOUT"] * 1e-6
 
     def global_position(self) -> tuple[float, float, float]:
         """Latitude, longitude (deg) and altitude AMSL (m) of the estimate."""
@@ -301,7 +302,7 @@ class Estimator:
             return
         d_meas = -(pressure_alt - self.baro_offset - self.origin_alt)
         gps_fresh = self._gps_d is not None and now - self.last_gps < GPS_TIMEOUT
-        if self.height_ref == HGT_REF_GNSS:
+        if self.params["EKF2_HGT_REF"] == HGT_REF_GNSS:
             err = d_meas - self._baro_bias - self.pos[2]
             if gps_fresh:
                 # An aid: the bias takes up what the barometer says beyond GNSS height.
@@ -379,10 +380,11 @@ class Estimator:
         vel[2] += K_GPS_VEL * 0.5 * (vd - vel[2])
         gps_d = self._gps_d = self.origin_alt - alt
         baro_out = self.last_baro < 0 or now - self.last_baro > 1.0 or self.baro_rejected
-        if self.height_ref == HGT_REF_GNSS or baro_out:
+        gnss_height = self.params["EKF2_HGT_REF"] == HGT_REF_GNSS
+        if gnss_height or baro_out:
             ed = gps_d - pos[2]
             pos[2] += K_GPS_POS * ed
-            if self.height_ref == HGT_REF_GNSS:
+            if gnss_height:
                 vel[2] += K_GPS_VEL_FROM_POS_Z * ed
         last = self._last_gps_vel
         if fresh and last is not None and self._sf_time > 0.02:

@@ -101,8 +101,12 @@ class Navigator(State):
             self.mission_state = MISSION_STATE_COMPLETE
             self._text("Mission finished")
 
+    def _blind(self) -> bool:
+        """No position to fly by: the failsafe took over, or the estimate has none."""
+        return self.failsafe is not None or not self.est.position_ok(self._now)
+
     def _land_speed(self) -> float:
-        if self.failsafe is not None or not self.est.position_ok(self._now):
+        if self._blind():
             # Blind, PX4 descends (its Descend mode) at the landing speed all the way down.
             return self.params["MPC_LAND_SPEED"]
         height = self._home_d() - self.est.pos[2]
@@ -413,7 +417,7 @@ class Navigator(State):
         if vxy is not None:
             vel_sp = (vxy[0], vxy[1], vel_sp[2])
         vel = est.vel
-        if self.failsafe is not None or not est.position_ok(self._now):
+        if self._blind():
             # No position: a blind descent, level, on the vertical speed alone (the horizontal
             # velocity estimate drifts without GPS). Level as PX4's Descend, which asks for no
             # horizontal acceleration: the tilt the integrator learnt against drag at cruise

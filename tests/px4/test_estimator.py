@@ -76,7 +76,7 @@ def test_in_flight_the_imu_carries_the_position_for_ekf2_noaid_tout() -> None:
 
     def fly(in_air: bool) -> list[bool]:
         est = Estimator()
-        est.in_air, est.noaid_timeout = in_air, 5.0
+        est.in_air = in_air  # EKF2_NOAID_TOUT is PX4's 5 s
         rate = 250
         seen = []
         for k in range(10 * rate):
