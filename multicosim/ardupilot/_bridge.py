@@ -36,7 +36,6 @@ import struct
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
 
 import msgspec
 
@@ -44,8 +43,7 @@ from .._errors import MulticosimError, NodeCrashedError
 from .._local import Watch, mark_reported
 from .._runtime import StepContext, Subscription
 from ..px4._hil import MavlinkPacket, Truth
-from ..px4._hilserver import Lockstep
-from ..px4._mav import new_link
+from ..px4._hilserver import RECV, FirstMavlinkClient, Lockstep
 
 __all__ = [
     "DOWNLINK",
@@ -74,9 +72,7 @@ MAGIC16, MAGIC32 = 18458, 29569
 """Servo packet magic numbers: 16 outputs (40 bytes), 32 outputs (72 bytes)."""
 _HEADER = struct.Struct("<HHI")
 _SIZES = {MAGIC16: 40, MAGIC32: 72}
-_RECV = 65536
 RESEND_AFTER = 0.9  # s: ArduPilot resends a packet after a second without an answer
-_MAX_PREAMBLE = 600  # bytes a MAVLink client may send before its first frame
 
 
 class ServoOutputs(msgspec.Struct, frozen=True, array_like=True, gc=False):
@@ -181,9 +177,7 @@ class JsonBridge(Lockstep):
         self.lockstep_timeout = lockstep_timeout
         self.topics = (truth, servos, uplink, downlink)
         physics.setblocking(False)
-        mavlink.setblocking(False)
         self._physics = physics
-        self._listener = mavlink
         self.mavlink_port = int(mavlink.getsockname()[1])
         """The TCP port ArduPilot's MAVLink link connects to."""
         self._peer: tuple[str, int] | None = None
@@ -192,7 +186,7 @@ class JsonBridge(Lockstep):
         self._last_reply = b""
         self._answered_at = 0.0  # wall time of the last answer
         self._link: socket.socket | None = None
-        self._clients: dict[socket.socket, list[Any]] = {}  # client -> [parser, bytes seen]
+        self._clients = FirstMavlinkClient(mavlink, name, "MAVLink client", "ardupilotmega")
         self._framer = MavlinkFramer()
         self._pending_down = b""  # frames a client sent while it was being identified
         self._truth: Subscription[Truth] | None = None
@@ -360,47 +354,12 @@ class JsonBridge(Lockstep):
     def _accept(self) -> None:
         if self._link is not None:
             return
-        with contextlib.suppress(BlockingIOError, InterruptedError):
-            while True:
-                conn, peer = self._listener.accept()
-                if self.peer_check is not None and not self.peer_check("tcp", peer):
-                    log.warning("%s: refused a MAVLink client from %s", self.name, peer)
-                    conn.close()
-                    continue
-                conn.setblocking(False)
-                self._clients[conn] = [new_link(0, 0, "ardupilotmega"), bytearray()]
-        for conn, state in list(self._clients.items()):
-            try:
-                data = conn.recv(_RECV)
-            except (BlockingIOError, InterruptedError):
-                continue
-            except OSError:
-                data = b""
-            parser, seen = state
-            seen += data
-            frames = []
-            if data:
-                with contextlib.suppress(Exception):  # pymavlink's errors on garbage
-                    frames = [
-                        m for m in parser.parse_buffer(data) or () if m.get_type() != "BAD_DATA"
-                    ]
-            if not frames:
-                if not data or len(seen) > _MAX_PREAMBLE:
-                    del self._clients[conn]
-                    conn.close()
-                    if data:
-                        log.warning("%s: dropped a MAVLink client that spoke no MAVLink", self.name)
-                continue
-            del self._clients[conn]
-            conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-            self._link = conn
-            self._pending_down = self._framer.feed(bytes(seen))
+        client = self._clients.poll(self.peer_check)
+        if client is not None:
             # ArduPilot is connected: nobody else gets in (nothing listens any more).
-            for other in self._clients:
-                other.close()
-            self._clients = {}
-            self._listener.close()
-            return
+            self._clients.close()
+            self._link = client.conn
+            self._pending_down = self._framer.feed(client.data)
 
     def _send_uplink(self) -> None:
         """Send the ground station's frames to ArduPilot (held until its link is known)."""
@@ -424,7 +383,7 @@ class JsonBridge(Lockstep):
         self._pending_down = b""
         while True:
             try:
-                data = link.recv(_RECV)
+                data = link.recv(RECV)
             except (BlockingIOError, InterruptedError):
                 break
             except OSError as exc:
@@ -461,12 +420,11 @@ class JsonBridge(Lockstep):
 
     def close(self) -> None:
         """Close every socket."""
-        for conn in [*self._clients, *([self._link] if self._link else [])]:
+        self._clients.close()
+        if self._link is not None:
             with contextlib.suppress(OSError):
-                conn.close()
-        self._clients = {}
+                self._link.close()
         self._link = None
-        self._listener.close()
         self._physics.close()
 
     def __repr__(self) -> str:

@@ -23,25 +23,28 @@ from collections.abc import Callable
 from typing import Any
 
 from ..px4._config import Configuration
-from ..px4._gcs import (
+from ..px4._gcs import GroundStation, MissionFailed, Procedure
+from ..px4._mav import (
     CMD_ARM_DISARM,
+    CMD_DO_SET_MODE,
     CMD_LAND,
     CMD_MISSION_START,
     CMD_RTL,
+    CMD_SET_MSG_INTERVAL,
     CMD_TAKEOFF,
     CMD_WAYPOINT,
-    GroundStation,
-    MissionFailed,
-    Procedure,
+    MSG_ATTITUDE,
+    MSG_EXTENDED_SYS_STATE,
+    MSG_GLOBAL_POSITION_INT,
+    MSG_HOME_POSITION,
+    MSG_LOCAL_POSITION_NED,
+    MSG_MISSION_CURRENT,
+    MSG_SYS_STATUS,
 )
 
 __all__ = ["ArduPilotProcedure", "CopterProcedure", "RoverProcedure"]
 
-CMD_DO_SET_MODE, CMD_SET_MESSAGE_INTERVAL = 176, 511
 CUSTOM_MODE_ENABLED = 1
-# MAVLink message ids the ground station asks ArduPilot to stream.
-GLOBAL_POSITION_INT, LOCAL_POSITION_NED, ATTITUDE = 33, 32, 30
-SYS_STATUS, EXTENDED_SYS_STATE, MISSION_CURRENT, HOME_POSITION = 1, 245, 42, 242
 STOPPED = 0.2  # m/s: a rover slower than this has stopped
 MISSION_COMPLETE = 5  # MISSION_STATE_COMPLETE
 RETRY = 1.0  # s between attempts at what ArduPilot refuses until its checks pass
@@ -76,15 +79,15 @@ class ArduPilotProcedure(Procedure):
         """Ask for the telemetry the ground station records (ArduPilot streams none)."""
         fast = round(gs.spec.period * 1e6)
         for message, interval in (
-            (GLOBAL_POSITION_INT, fast),
-            (LOCAL_POSITION_NED, fast),
-            (ATTITUDE, fast),
-            (SYS_STATUS, fast),
-            (EXTENDED_SYS_STATE, fast),
-            (MISSION_CURRENT, fast),
-            (HOME_POSITION, 1_000_000),
+            (MSG_GLOBAL_POSITION_INT, fast),
+            (MSG_LOCAL_POSITION_NED, fast),
+            (MSG_ATTITUDE, fast),
+            (MSG_SYS_STATUS, fast),
+            (MSG_EXTENDED_SYS_STATE, fast),
+            (MSG_MISSION_CURRENT, fast),
+            (MSG_HOME_POSITION, 1_000_000),
         ):
-            if gs.command(CMD_SET_MESSAGE_INTERVAL, message, interval) != 0:
+            if gs.command(CMD_SET_MSG_INTERVAL, message, interval) != 0:
                 raise MissionFailed(f"ArduPilot refused to stream MAVLink message {message}")
 
     def mission_items(

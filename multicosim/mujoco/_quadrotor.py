@@ -20,12 +20,12 @@ from ..px4._airframe import NONE_IRIS, Airframe
 from ..px4._config import SENSORS, Topics
 from ..px4._hil import (
     ACTUATOR_FLAG_VELOCITY,
-    ARMED_FLAG,
     HilActuatorControls,
     MavlinkPacket,
     Wire,
     read,
 )
+from ..px4._mav import MODE_FLAG_ARMED
 from ..px4._sensors import HilSensors
 from ._frames import NedState, ned_state
 from ._world import Physics
@@ -75,7 +75,11 @@ class QuadrotorVehicle:
             self._cmd = read(latest, HilActuatorControls) if self.wire == "mavlink" else latest
         cmd = self._cmd
         ctrl = physics.data.ctrl
-        if cmd is not None and cmd.mode & ARMED_FLAG and not cmd.flags & ACTUATOR_FLAG_VELOCITY:
+        if (
+            cmd is not None
+            and cmd.mode & MODE_FLAG_ARMED
+            and not cmd.flags & ACTUATOR_FLAG_VELOCITY
+        ):
             ctrl[:] = cmd.controls[: self._motors]
         else:
             ctrl[:] = 0.0

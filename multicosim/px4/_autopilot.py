@@ -29,13 +29,21 @@ from ._control import MultirotorController
 from ._estimator import Estimator
 from ._failures import Failures
 from ._hil import HilGps, HilSensor, MavlinkPacket, Truth, Wire, pack, unpack
-from ._mav import MainMode, Mode, SubMode, decode_frames, dialect, new_link
+from ._mav import (
+    MISSION_STATE_NO_MISSION,
+    MainMode,
+    Mode,
+    SubMode,
+    decode_frames,
+    dialect,
+    new_link,
+)
 from ._missions import Missions
 from ._navigator import Navigator
 from ._params import Params
 from ._paramserver import ParamServer
 from ._server import Server
-from ._state import MISSION_STATE_NO_MISSION, Item
+from ._state import Item
 from ._streams import GCS_STREAMS, Streams, onboard_streams
 
 __all__ = ["Autopilot", "AutopilotSpec", "Item", "MainMode", "SubMode", "autopilot"]

@@ -3,8 +3,7 @@
 from __future__ import annotations
 
 from ..geo import GRAVITY
-from ._mav import Mode
-from ._state import (
+from ._mav import (
     CMD_LAND,
     CMD_RTL,
     MISSION_STATE_ACTIVE,
@@ -12,8 +11,9 @@ from ._state import (
     SEV_CRITICAL,
     SEV_NOTICE,
     SEV_WARNING,
-    State,
+    Mode,
 )
+from ._state import State
 
 __all__ = ["Commander"]
 

@@ -11,8 +11,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from ._mav import Mode
-from ._state import (
+from ._mav import (
     CMD_ARM_DISARM,
     CMD_DO_CHANGE_SPEED,
     CMD_DO_REPOSITION,
@@ -32,20 +31,21 @@ from ._state import (
     FRAME_GLOBAL,
     FRAME_GLOBAL_INT,
     MODE_FLAG_CUSTOM,
+    MSG_PROTOCOL_VERSION,
     RESULT_ACCEPTED,
     RESULT_DENIED,
     RESULT_TEMP_REJECTED,
     RESULT_UNSUPPORTED,
     SEV_WARNING,
-    State,
+    Mode,
 )
+from ._state import State
 
 __all__ = ["Commands"]
 
 # Messages REQUEST_MESSAGE is answered for beyond the streams (PX4 accepts these; the ones
 # our dialect cannot encode are acknowledged only).
 ONE_SHOT = {"AUTOPILOT_VERSION", "PROTOCOL_VERSION", "GPS_GLOBAL_ORIGIN", "FLIGHT_INFORMATION"}
-PROTOCOL_VERSION_ID = 300
 
 
 class Commands(State):
@@ -180,7 +180,7 @@ class Commands(State):
         return RESULT_ACCEPTED
 
     def _request_message(self, msgid: int) -> int:
-        if msgid == PROTOCOL_VERSION_ID:
+        if msgid == MSG_PROTOCOL_VERSION:
             return RESULT_ACCEPTED  # not in our dialect: acknowledged, as PX4 does
         cls = self._d.mavlink_map.get(msgid)
         if cls is None:

@@ -13,7 +13,8 @@ from typing import Any
 
 from ..attacks import Dropout
 from ._hil import BARO_FIELDS, IMU_FIELDS, MAG_FIELDS, HilGps
-from ._state import RESULT_ACCEPTED, RESULT_DENIED, RESULT_UNSUPPORTED, State
+from ._mav import RESULT_ACCEPTED, RESULT_DENIED, RESULT_UNSUPPORTED
+from ._state import State
 
 __all__ = ["FAILURE_UNITS", "Failures"]
 

@@ -21,7 +21,27 @@ import msgspec
 from .._runtime import Firmware, FirmwareContext
 from ._config import Configuration, FlightSample, MissionResult, WaypointReached
 from ._hil import MavlinkPacket, Truth
-from ._mav import decode_frames, mode_label, new_link
+from ._mav import (
+    CMD_ARM_DISARM,
+    CMD_LAND,
+    CMD_MISSION_START,
+    CMD_REQUEST_MESSAGE,
+    CMD_RTL,
+    CMD_TAKEOFF,
+    CMD_WAYPOINT,
+    FRAME_GLOBAL_REL_INT,
+    FRAME_MISSION,
+    LANDED_ON_GROUND,
+    MAV_AUTOPILOT_INVALID,
+    MAV_TYPE_GCS,
+    MODE_FLAG_ARMED,
+    MSG_AUTOPILOT_VERSION,
+    PREARM_BIT,
+    SEV_CRITICAL,
+    decode_frames,
+    mode_label,
+    new_link,
+)
 
 __all__ = [
     "GcsSpec",
@@ -31,15 +51,6 @@ __all__ = [
     "Procedure",
     "ground_station",
 ]
-
-MAV_TYPE_GCS, MAV_AUTOPILOT_INVALID = 6, 8
-FRAME_MISSION, FRAME_GLOBAL_REL_INT = 2, 6
-CMD_WAYPOINT, CMD_RTL, CMD_LAND, CMD_TAKEOFF = 16, 20, 21, 22
-CMD_MISSION_START, CMD_ARM_DISARM, CMD_REQUEST_MESSAGE = 300, 400, 512
-MSG_AUTOPILOT_VERSION = 148
-PREARM_BIT = 0x10000000
-LANDED_ON_GROUND = 1
-SEV_CRITICAL = 2
 
 
 class GcsSpec(msgspec.Struct, frozen=True, kw_only=True):
@@ -68,9 +79,9 @@ class Procedure:
     """How one autopilot is flown: what differs between autopilots, in one place.
 
     The ground station calls, in this order: ``prepare`` (after the first HEARTBEAT),
-    waits until ``ready``, sets ``parameters``, uploads ``mission_items``, calls ``start``
-    (arm, take off, start the mission), then ``finished`` at every step until it says the
-    mission is done. Subclasses override what their autopilot does differently; the
+    waits until nothing is ``unready``, sets ``parameters``, uploads ``mission_items``, calls
+    ``start`` (arm, take off, start the mission), then ``finished`` at every step until it
+    says the mission is done. Subclasses override what their autopilot does differently; the
     defaults are PX4's.
     """
 
@@ -84,14 +95,21 @@ class Procedure:
     def prepare(self, gs: GroundStation, config: Configuration) -> None:
         """Anything to do once the autopilot is heard, before waiting for it to be ready."""
 
-    def ready(self, gs: GroundStation) -> bool:
-        """Whether the autopilot may be armed: its pre-arm checks pass and home is set."""
+    def unready(self, gs: GroundStation) -> str:
+        """What the autopilot still lacks before a mission can start ("" once it is ready).
+
+        It must report its pre-arm checks passed (unless it already flies: an armed vehicle
+        takes a new mission as it is) and its home position.
+        """
         status = gs.sys_status
-        return (
-            status is not None
-            and bool(status.onboard_control_sensors_health & PREARM_BIT)
-            and gs.home is not None
-        )
+        if not gs.armed:
+            if status is None:
+                return "no SYS_STATUS from the autopilot"
+            if not status.onboard_control_sensors_health & PREARM_BIT:
+                return gs.why("its pre-arm checks do not pass")
+        if gs.home is None:
+            return "no HOME_POSITION from the autopilot"
+        return ""
 
     def parameters(self, config: Configuration) -> list[tuple[str, float]]:
         """The parameters that carry the configuration's speed and acceptance radius."""
@@ -218,7 +236,7 @@ class GroundStation:
     @property
     def armed(self) -> bool:
         """The autopilot's armed flag from its last HEARTBEAT."""
-        return bool(self.heartbeat is not None and self.heartbeat.base_mode & 128)
+        return bool(self.heartbeat is not None and self.heartbeat.base_mode & MODE_FLAG_ARMED)
 
     @property
     def mode(self) -> str:
@@ -308,7 +326,7 @@ class GroundStation:
                 pitch=att.pitch if att else math.nan,
                 yaw=att.yaw if att else math.nan,
                 mode=self.procedure.mode_label(hb) if hb else "",
-                armed=bool(hb and hb.base_mode & 128),
+                armed=self.armed,
                 current=self.current,
                 true_lat=truth.lat if truth else math.nan,
                 true_lon=truth.lon if truth else math.nan,
@@ -438,11 +456,14 @@ class GroundStation:
         self.command(CMD_REQUEST_MESSAGE, MSG_AUTOPILOT_VERSION, tries=1)
         procedure.prepare(self, config)
         ready = self.wait(
-            lambda: procedure.ready(self),
+            lambda: not procedure.unready(self),
             min(self.spec.preflight_timeout, deadline - self.ctx.time),
         )
         if not ready and self.ctx.time >= deadline:
-            raise MissionFailed(f"time limit of {config.time_limit:g} s reached before arming")
+            raise MissionFailed(
+                f"time limit of {config.time_limit:g} s reached before arming: "
+                + procedure.unready(self)
+            )
         for name, value in procedure.parameters(config):
             if not self.set_param(name, value):
                 raise MissionFailed(f"the autopilot did not accept parameter {name}={value:g}")

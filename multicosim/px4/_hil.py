@@ -41,7 +41,6 @@ BARO_FIELDS = 0x200 | 0x800 | 0x1000  # ABSPRESSURE | PRESSALT | TEMPERATURE
 # 0..3 are a velocity setpoint (north, east, down m/s; yaw rad) rather than motor outputs.
 # Only the low-fidelity point-mass vehicle, which has no motors, uses it.
 ACTUATOR_FLAG_VELOCITY = 1 << 32
-ARMED_FLAG = 128  # MAV_MODE_FLAG_SAFETY_ARMED, in HIL_ACTUATOR_CONTROLS.mode
 
 
 class HilSensor(msgspec.Struct, frozen=True, array_like=True, gc=False):

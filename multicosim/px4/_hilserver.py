@@ -3,7 +3,7 @@
 PX4 SITL connects as a TCP client to its simulator on port 4560 + instance and waits for
 sensors: its clock is the ``time_usec`` of each HIL_SENSOR, and it answers every IMU sample
 with HIL_ACTUATOR_CONTROLS once its controllers have run on it (lockstep). It also asks for
-HIL_STATE_QUATERNION (ground truth) with a SET_MESSAGE_INTERVAL command.
+MSG_HIL_STATE_QUATERNION (ground truth) with a SET_MESSAGE_INTERVAL command.
 
 :class:`HilTcpBridge` is that simulator end for our worlds, as a participant stepped right
 after the world: each step it sends what the world (or an injector in front of PX4) published
@@ -24,7 +24,8 @@ import logging
 import select
 import socket
 import time
-from typing import Any
+from collections.abc import Callable
+from typing import Any, NamedTuple
 
 from .._errors import MulticosimError, NodeCrashedError, NodeTimeoutError
 from .._local import Watch, crashed
@@ -40,19 +41,17 @@ from ._hil import (
     from_mavlink,
     pack,
 )
-from ._mav import dialect, new_link
+from ._mav import CMD_SET_MSG_INTERVAL, MSG_HIL_STATE_QUATERNION, dialect, new_link
 
-__all__ = ["SIM_PORT", "HilTcpBridge", "Lockstep"]
+__all__ = ["SIM_PORT", "FirstMavlinkClient", "HilTcpBridge", "Lockstep", "MavlinkClient"]
 
 log = logging.getLogger(__name__)
 
 SIM_PORT = 4560
 """PX4's simulator port for instance 0 (instance N connects to SIM_PORT + N)."""
 
-HIL_STATE_QUATERNION = 115
-CMD_SET_MESSAGE_INTERVAL = 511
 BOOT_WAIT = 0.05  # s of wall time a step waits for PX4 before its first answer
-_RECV = 65536
+RECV = 65536  # bytes read from a socket at a time
 _MAX_PREAMBLE = 600  # bytes a client may send before its first MAVLink frame (2 frames' worth)
 
 
@@ -63,6 +62,83 @@ def _parse(parser: Any, data: bytes) -> list[Any]:
     except Exception:  # pymavlink raises its own errors on garbage it cannot skip
         return []
     return [m for m in frames if m.get_type() != "BAD_DATA"]
+
+
+class MavlinkClient(NamedTuple):
+    """A client taken by :class:`FirstMavlinkClient`."""
+
+    conn: socket.socket
+    parser: Any
+    data: bytes
+    """Everything it sent so far (its first frames among it)."""
+    frames: list[Any]
+    """The MAVLink messages in ``data``."""
+
+
+class FirstMavlinkClient:
+    """The first client of a listening TCP socket that speaks MAVLink.
+
+    A client is taken once it has sent a MAVLink frame; one that hangs up, or sends a few
+    hundred bytes that hold none, is dropped, so a stray or hostile local client cannot
+    take the firmware's place. ``what`` names the clients in the log.
+    """
+
+    def __init__(
+        self,
+        listener: socket.socket,
+        name: str,
+        what: str,
+        dialect_name: str = "common",
+    ) -> None:
+        listener.setblocking(False)
+        self.listener = listener
+        self.name, self.what = name, what
+        self._dialect = dialect_name
+        self._pending: dict[socket.socket, tuple[Any, bytearray]] = {}
+
+    def poll(self, peer_check: Callable[[str, Any], bool] | None = None) -> MavlinkClient | None:
+        """Accept and read what is waiting; the client once one has spoken MAVLink.
+
+        ``peer_check`` (transport, address) refuses clients outright.
+        """
+        with contextlib.suppress(BlockingIOError, InterruptedError):
+            while True:
+                conn, peer = self.listener.accept()
+                if peer_check is not None and not peer_check("tcp", peer):
+                    log.warning("%s: refused a %s from %s", self.name, self.what, peer)
+                    conn.close()
+                    continue
+                conn.setblocking(False)
+                self._pending[conn] = (new_link(0, 0, self._dialect), bytearray())
+                log.debug("%s: %s from %s", self.name, self.what, peer)
+        for conn, (parser, seen) in list(self._pending.items()):
+            try:
+                data = conn.recv(RECV)
+            except (BlockingIOError, InterruptedError):
+                continue
+            except OSError:
+                data = b""
+            seen += data
+            frames = _parse(parser, data) if data else []
+            if not frames:
+                if not data or len(seen) > _MAX_PREAMBLE:
+                    del self._pending[conn]
+                    conn.close()
+                    if data:
+                        log.warning("%s: dropped a %s that spoke no MAVLink", self.name, self.what)
+                continue
+            del self._pending[conn]
+            conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            return MavlinkClient(conn, parser, bytes(seen), frames)
+        return None
+
+    def close(self) -> None:
+        """Close the clients still waiting and the listening socket."""
+        for conn in self._pending:
+            with contextlib.suppress(OSError):
+                conn.close()
+        self._pending = {}
+        self.listener.close()
 
 
 class Lockstep:
@@ -140,10 +216,9 @@ class HilTcpBridge(Lockstep):
             except OSError:
                 server.close()
                 raise
-        server.setblocking(False)
-        self._server = server
+        self._port = int(server.getsockname()[1])
+        self._clients = FirstMavlinkClient(server, name, "simulator client")
         self._conn: socket.socket | None = None
-        self._pending: dict[socket.socket, list[Any]] = {}  # client -> [parser, bytes seen]
         self._parser: Any = None
         self._link: Any = new_link(1, 51)  # what PX4's simulators call themselves
         self._d: Any = dialect()
@@ -160,7 +235,7 @@ class HilTcpBridge(Lockstep):
     @property
     def port(self) -> int:
         """The TCP port PX4 should connect to."""
-        return int(self._server.getsockname()[1])
+        return self._port
 
     @property
     def connected(self) -> bool:
@@ -187,38 +262,14 @@ class HilTcpBridge(Lockstep):
         """
         if self._conn is not None:
             return True
-        with contextlib.suppress(BlockingIOError, InterruptedError):
-            while True:
-                conn, peer = self._server.accept()
-                conn.setblocking(False)
-                self._pending[conn] = [new_link(0, 0), 0]
-                log.debug("%s: simulator client from %s", self.name, peer)
-        for conn, state in list(self._pending.items()):
-            try:
-                data = conn.recv(_RECV)
-            except (BlockingIOError, InterruptedError):
-                continue
-            except OSError:
-                data = b""
-            parser, seen = state
-            frames = _parse(parser, data) if data else []
-            state[1] = seen = seen + len(data)
-            if not frames:
-                if not data or seen > _MAX_PREAMBLE:
-                    del self._pending[conn]
-                    conn.close()
-                    if data:
-                        log.warning(
-                            "%s: dropped a simulator client that spoke no MAVLink", self.name
-                        )
-                continue
-            del self._pending[conn]
-            conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-            self._parser = parser
-            self._conn = conn
+        client = self._clients.poll()
+        if client is not None:
+            # PX4 is connected: nobody else gets in (nothing listens any more).
+            self._clients.close()
+            self._parser = client.parser
+            self._conn = client.conn
             log.info("%s connected to its simulator", self.name)
-            self._handle(frames)
-            break
+            self._handle(client.frames)
         return self._conn is not None
 
     def _handle(self, frames: list[Any]) -> HilActuatorControls | None:
@@ -229,8 +280,8 @@ class HilTcpBridge(Lockstep):
                 controls = hil
             elif (
                 m.get_type() == "COMMAND_LONG"
-                and m.command == CMD_SET_MESSAGE_INTERVAL
-                and round(m.param1) == HIL_STATE_QUATERNION
+                and m.command == CMD_SET_MSG_INTERVAL
+                and round(m.param1) == MSG_HIL_STATE_QUATERNION
             ):
                 # PX4 asks for ground truth every param2 microseconds (<= 0: stop).
                 self._truth_interval = m.param2 * 1e-6 if m.param2 > 0 else None
@@ -317,7 +368,7 @@ class HilTcpBridge(Lockstep):
                 self._check_alive()
                 continue
             try:
-                data = conn.recv(_RECV)
+                data = conn.recv(RECV)
             except OSError as exc:
                 raise self._lost(f"closed the simulator connection ({exc})") from exc
             if not data:
@@ -332,12 +383,11 @@ class HilTcpBridge(Lockstep):
 
     def close(self) -> None:
         """Close the sockets."""
-        for conn in [*self._pending, *([self._conn] if self._conn else [])]:
+        self._clients.close()
+        if self._conn is not None:
             with contextlib.suppress(OSError):
-                conn.close()
-        self._pending = {}
+                self._conn.close()
         self._conn = None
-        self._server.close()
 
     def __repr__(self) -> str:
         state = "connected" if self._conn is not None else "waiting"

@@ -14,8 +14,7 @@ import math
 from typing import Any
 
 from ..geo import LocalProjection
-from ._mav import Mode
-from ._state import (
+from ._mav import (
     CMD_DO_CHANGE_SPEED,
     CMD_DO_JUMP,
     CMD_FENCE_CIRCLE_EXCLUSION,
@@ -44,9 +43,9 @@ from ._state import (
     NAV_COMMANDS,
     SEV_CRITICAL,
     SEV_WARNING,
-    Item,
-    State,
+    Mode,
 )
+from ._state import Item, State
 
 __all__ = ["Missions"]
 

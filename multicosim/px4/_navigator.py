@@ -12,9 +12,8 @@ from __future__ import annotations
 import math
 
 from ._control import position_control
-from ._hil import ACTUATOR_FLAG_VELOCITY, ARMED_FLAG, HilActuatorControls
-from ._mav import Mode
-from ._state import (
+from ._hil import ACTUATOR_FLAG_VELOCITY, HilActuatorControls
+from ._mav import (
     CMD_DO_CHANGE_SPEED,
     CMD_DO_JUMP,
     CMD_LAND,
@@ -25,11 +24,11 @@ from ._state import (
     FRAME_GLOBAL,
     FRAME_GLOBAL_INT,
     MISSION_STATE_COMPLETE,
+    MODE_FLAG_ARMED,
     NAV_COMMANDS,
-    Item,
-    State,
-    Vec3,
+    Mode,
 )
+from ._state import Item, State, Vec3
 
 __all__ = ["Navigator"]
 
@@ -389,10 +388,10 @@ class Navigator(State):
                 return HilActuatorControls(
                     t_us,
                     [0.0, 0.0, 0.0, self._yaw_sp, *_ZEROS12],
-                    ARMED_FLAG,
+                    MODE_FLAG_ARMED,
                     ACTUATOR_FLAG_VELOCITY | 1,
                 )
-            return HilActuatorControls(t_us, [0.1, 0.1, 0.1, 0.1, *_ZEROS12], ARMED_FLAG, 1)
+            return HilActuatorControls(t_us, [0.1, 0.1, 0.1, 0.1, *_ZEROS12], MODE_FLAG_ARMED, 1)
         offboard = self._offboard if self.mode == Mode.OFFBOARD else None
         if offboard is not None and offboard.attitude is not None and not self.velocity_vehicle:
             thrust = offboard.thrust if offboard.thrust is not None else 0.0
@@ -401,7 +400,7 @@ class Navigator(State):
             motors = self.ctl.attitude(
                 self.period, offboard.attitude, thrust, est.rotation(), est.rates
             )
-            return HilActuatorControls(t_us, [*motors, *_ZEROS12], ARMED_FLAG, 1)
+            return HilActuatorControls(t_us, [*motors, *_ZEROS12], MODE_FLAG_ARMED, 1)
         cruise = self._cruise or p["MPC_XY_CRUISE"]
         up = (
             p["MPC_TKO_SPEED"] if self.landed or self.mode == Mode.TAKEOFF else p["MPC_Z_V_AUTO_UP"]
@@ -431,11 +430,11 @@ class Navigator(State):
             return HilActuatorControls(
                 t_us,
                 [vel_sp[0], vel_sp[1], vel_sp[2], self._yaw_sp, *_ZEROS12],
-                ARMED_FLAG,
+                MODE_FLAG_ARMED,
                 ACTUATOR_FLAG_VELOCITY | 1,
             )
         motors = self.ctl.update(self.period, vel, vel_sp, self._yaw_sp, est.rotation(), est.rates)
         for i in self.motors_off:
             if i < len(motors):
                 motors[i] = 0.0
-        return HilActuatorControls(t_us, [*motors, *_ZEROS12], ARMED_FLAG, 1)
+        return HilActuatorControls(t_us, [*motors, *_ZEROS12], MODE_FLAG_ARMED, 1)

@@ -12,24 +12,25 @@ import logging
 import math
 from typing import Any
 
-from ._navigator import FOLLOW_MIN_COURSE_SPEED, FOLLOW_VELOCITY_TAU
-from ._state import (
+from ._mav import (
     FRAME_BODY_NED,
     FRAME_BODY_OFFSET_NED,
     FRAME_GLOBAL,
     FRAME_GLOBAL_INT,
     FRAME_LOCAL_OFFSET_NED,
     SEV_INFO,
-    Setpoint,
-    State,
+    TARGET_IGNORE_POSITION,
+    TARGET_IGNORE_VELOCITY,
+    TARGET_IGNORE_YAW,
 )
+from ._navigator import FOLLOW_MIN_COURSE_SPEED, FOLLOW_VELOCITY_TAU
+from ._state import Setpoint, State
 
 __all__ = ["Server"]
 
 log = logging.getLogger(__name__)
 
 # POSITION_TARGET_TYPEMASK / ATTITUDE_TARGET_TYPEMASK bits.
-IGNORE_POS, IGNORE_VEL, IGNORE_YAW = 1 | 2 | 4, 8 | 16 | 32, 1024
 IGNORE_ATTITUDE, IGNORE_THRUST = 128, 64
 
 
@@ -78,8 +79,8 @@ class Server(State):
 
     def _on_set_position_target_local_ned(self, m: Any) -> None:
         mask = m.type_mask
-        pos = None if mask & IGNORE_POS else (m.x, m.y, m.z)
-        vel = None if mask & IGNORE_VEL else (m.vx, m.vy, m.vz)
+        pos = None if mask & TARGET_IGNORE_POSITION else (m.x, m.y, m.z)
+        vel = None if mask & TARGET_IGNORE_VELOCITY else (m.vx, m.vy, m.vz)
         if m.coordinate_frame in (FRAME_BODY_NED, FRAME_BODY_OFFSET_NED):
             yaw = self.est.euler()[2]
             c, s = math.cos(yaw), math.sin(yaw)
@@ -95,21 +96,21 @@ class Server(State):
         elif pos is not None and m.coordinate_frame == FRAME_LOCAL_OFFSET_NED:
             p = self.est.pos
             pos = (p[0] + pos[0], p[1] + pos[1], p[2] + pos[2])
-        self._setpoint_in(pos, vel, None if mask & IGNORE_YAW else m.yaw)
+        self._setpoint_in(pos, vel, None if mask & TARGET_IGNORE_YAW else m.yaw)
 
     def _on_set_position_target_global_int(self, m: Any) -> None:
         mask = m.type_mask
         pos = None
         origin = self.est.origin
-        if not mask & IGNORE_POS and origin is not None:
+        if not mask & TARGET_IGNORE_POSITION and origin is not None:
             n, e = origin.project(m.lat_int * 1e-7, m.lon_int * 1e-7)
             if m.coordinate_frame in (FRAME_GLOBAL, FRAME_GLOBAL_INT):
                 d = self.est.origin_alt - m.alt
             else:
                 d = (self.home[2] if self.home is not None else 0.0) - m.alt
             pos = (n, e, d)
-        vel = None if mask & IGNORE_VEL else (m.vx, m.vy, m.vz)
-        self._setpoint_in(pos, vel, None if mask & IGNORE_YAW else m.yaw)
+        vel = None if mask & TARGET_IGNORE_VELOCITY else (m.vx, m.vy, m.vz)
+        self._setpoint_in(pos, vel, None if mask & TARGET_IGNORE_YAW else m.yaw)
 
     def _setpoint_in(self, pos: Any, vel: Any, yaw: float | None) -> None:
         if pos is not None and not all(math.isfinite(v) for v in pos):

@@ -12,8 +12,8 @@ import math
 from functools import cache
 from typing import Any
 
-from ._mav import MainMode, Mode, dialect, pack_scalar
-from ._state import (
+from ._mav import (
+    AHRS_BIT,
     FRAME_LOCAL_NED,
     LANDED_IN_AIR,
     LANDED_LANDING,
@@ -31,19 +31,24 @@ from ._state import (
     MODE_FLAG_GUIDED,
     MODE_FLAG_MANUAL,
     MODE_FLAG_STABILIZE,
-    State,
+    PREARM_BIT,
+    TARGET_IGNORE_ACCEL,
+    TARGET_IGNORE_POSITION,
+    TARGET_IGNORE_VELOCITY,
+    TARGET_IGNORE_YAW_RATE,
+    MainMode,
+    Mode,
+    dialect,
+    pack_scalar,
 )
+from ._state import State
 
 __all__ = ["GCS_STREAMS", "Streams", "onboard_streams"]
 
 SENSOR_BITS = 1 | 2 | 4 | 8 | 32  # gyro, accel, mag, baro, GPS
 CONTROL_BITS = 1024 | 2048 | 4096 | 8192 | 16384 | 32768  # rate..xy control, motor outputs
-AHRS_BIT, PREARM_BIT = 0x200000, 0x10000000
 CAPABILITIES = 1 | 2 | 4 | 8 | 256 | 8192  # mission float/int, param float, cmd int, ftp-less
 FLIGHT_SW_VERSION = (1 << 24) | (15 << 16) | (4 << 8) | 255  # "v1.15.4 official", as PX4's
-# POSITION_TARGET_TYPEMASK bits: what a POSITION_TARGET_LOCAL_NED leaves unset.
-TARGET_IGNORE_POSITION, TARGET_IGNORE_VELOCITY = 1 | 2 | 4, 8 | 16 | 32
-TARGET_IGNORE_ACCEL, TARGET_IGNORE_YAW_RATE = 64 | 128 | 256, 2048
 _NANS3 = (math.nan, math.nan, math.nan)
 NOMINAL_RATES = (0.5, 1.0, 2.0, 4.0, 5.0, 10.0, 20.0, 30.0, 50.0, 100.0)
 

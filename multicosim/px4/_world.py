@@ -26,12 +26,12 @@ from ..geo import GRAVITY
 from ..mujoco._config import WorldConfig
 from ._hil import (
     ACTUATOR_FLAG_VELOCITY,
-    ARMED_FLAG,
     HilActuatorControls,
     MavlinkPacket,
     Wire,
     read,
 )
+from ._mav import MODE_FLAG_ARMED
 from ._sensors import HilSensors
 
 __all__ = ["PointMassWorld", "WorldSpec", "world"]
@@ -112,7 +112,7 @@ class PointMassWorld:
     def _advance(self, cmd: HilActuatorControls | None) -> tuple[float, float, float]:
         dt, vel, pos = self.period, self.vel, self.pos
         on_ground = pos[2] >= -1e-6
-        if cmd is not None and cmd.mode & ARMED_FLAG and cmd.flags & ACTUATOR_FLAG_VELOCITY:
+        if cmd is not None and cmd.mode & MODE_FLAG_ARMED and cmd.flags & ACTUATOR_FLAG_VELOCITY:
             ctl = cmd.controls
             sp = (ctl[0], ctl[1], ctl[2])
             yaw_err = (ctl[3] - self.yaw + math.pi) % (2 * math.pi) - math.pi

@@ -24,15 +24,22 @@ from collections import Counter
 from importlib import resources
 from typing import Any
 
+from ._mav import (
+    MSG_AUTOPILOT_VERSION,
+    MSG_FLIGHT_INFORMATION,
+    MSG_GPS_GLOBAL_ORIGIN,
+    MSG_HEARTBEAT,
+    MSG_HIL_STATE_QUATERNION,
+    MSG_HOME_POSITION,
+    MSG_PROTOCOL_VERSION,
+)
+
 __all__ = ["PX4_VERSION", "differences", "load", "record"]
 
 PX4_VERSION = "1.15.4"
 WINDOW = 20.0  # simulated seconds of streams counted for the rates
 
-# Message ids the probes ask for (common dialect).
-MSG_HEARTBEAT, MSG_GPS_GLOBAL_ORIGIN, MSG_AUTOPILOT_VERSION = 0, 49, 148
-MSG_HIL_STATE_QUATERNION, MSG_HOME_POSITION, MSG_PROTOCOL_VERSION = 115, 242, 300
-MSG_FLIGHT_INFORMATION, MSG_UNKNOWN = 264, 9999
+MSG_UNKNOWN = 9999  # a message id no dialect has
 
 CMD = {  # name: id
     "NAV_WAYPOINT": 16,

@@ -78,6 +78,19 @@ def test_arming_refused_without_gps_fix() -> None:
     assert not result.reached
 
 
+def test_time_limit_before_arming_names_what_the_autopilot_lacks() -> None:
+    # No GPS fix ever: the pre-arm checks never pass, and the time limit runs out first.
+    simulator = px4.PX4(fidelity="low", autopilot_topics=px4.Topics(gps="px4/gps/nowhere"))
+    with simulator.start() as sim:
+        result = sim.firmware.send(px4.Configuration([wp(20, 0, 10)], time_limit=5.0))
+    assert not result.completed
+    assert result.reason == (
+        "time limit of 5 s reached before arming: its pre-arm checks do not pass"
+    )
+    assert result.end_time - result.start_time == pytest.approx(5.0, abs=0.1)
+    assert not result.armed
+
+
 class GpsCut:
     """Forwards GPS until ``after`` seconds, then drops it (a jammer)."""
 
