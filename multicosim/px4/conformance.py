@@ -25,6 +25,12 @@ from importlib import resources
 from typing import Any
 
 from ._mav import (
+    CMD_DO_JUMP,
+    CMD_RTL,
+    CMD_TAKEOFF,
+    CMD_WAYPOINT,
+    FRAME_GLOBAL_REL_INT,
+    FRAME_MISSION,
     MSG_AUTOPILOT_VERSION,
     MSG_FLIGHT_INFORMATION,
     MSG_GPS_GLOBAL_ORIGIN,
@@ -32,6 +38,7 @@ from ._mav import (
     MSG_HIL_STATE_QUATERNION,
     MSG_HOME_POSITION,
     MSG_PROTOCOL_VERSION,
+    Mode,
 )
 
 __all__ = ["PX4_VERSION", "differences", "load", "record"]
@@ -41,47 +48,12 @@ WINDOW = 20.0  # simulated seconds of streams counted for the rates
 
 MSG_UNKNOWN = 9999  # a message id no dialect has
 
-CMD = {  # name: id
-    "NAV_WAYPOINT": 16,
-    "NAV_LOITER_UNLIM": 17,
-    "NAV_RETURN_TO_LAUNCH": 20,
-    "NAV_LAND": 21,
-    "NAV_TAKEOFF": 22,
-    "DO_ORBIT": 34,
-    "DO_SET_MODE": 176,
-    "DO_JUMP": 177,
-    "DO_CHANGE_SPEED": 178,
-    "DO_SET_HOME": 179,
-    "DO_REPOSITION": 192,
-    "DO_PAUSE_CONTINUE": 193,
-    "DO_MOTOR_TEST": 209,
-    "DO_SET_MISSION_CURRENT": 224,
-    "MISSION_START": 300,
-    "COMPONENT_ARM_DISARM": 400,
-    "INJECT_FAILURE": 420,
-    "GET_HOME_POSITION": 410,
-    "GET_MESSAGE_INTERVAL": 510,
-    "SET_MESSAGE_INTERVAL": 511,
-    "REQUEST_MESSAGE": 512,
-    "REQUEST_AUTOPILOT_CAPABILITIES": 520,
-    "USER_1": 31010,
-}
-# PX4 flight modes as DO_SET_MODE asks for them: (main, sub).
-MODES = {
-    "MANUAL": (1, 0),
-    "ALTCTL": (2, 0),
-    "POSCTL": (3, 0),
-    "AUTO.TAKEOFF": (4, 2),
-    "AUTO.LOITER": (4, 3),
-    "AUTO.MISSION": (4, 4),
-    "AUTO.RTL": (4, 5),
-    "AUTO.LAND": (4, 6),
-    "AUTO.FOLLOW_TARGET": (4, 8),
-    "AUTO.PRECLAND": (4, 9),
-    "ACRO": (5, 0),
-    "OFFBOARD": (6, 0),
-    "STABILIZED": (7, 0),
-}
+
+def _command_id(name: str) -> int:
+    """MAV_CMD_``name``'s number (``NAV_TAKEOFF``, ``COMPONENT_ARM_DISARM``, ...)."""
+    from ._mav import dialect
+
+    return int(getattr(dialect(), f"MAV_CMD_{name}"))
 
 
 class _Link:
@@ -162,7 +134,7 @@ class _Link:
         self.wait(lambda m: False, sim_s)
 
     def command(self, name: str, *params: float, sim_s: float = 1.0) -> int | None:
-        cmd = CMD[name]
+        cmd = _command_id(name)
         p = [*params, *[0.0] * (7 - len(params))]
         for _ in range(3):
             self.mav.command_long_send(1, 1, cmd, 0, *p)
@@ -172,7 +144,7 @@ class _Link:
         return None
 
     def command_int(self, name: str, frame: int, *params: float, sim_s: float = 1.0) -> int | None:
-        cmd = CMD[name]
+        cmd = _command_id(name)
         p = [*params, *[0.0] * (7 - len(params))]
         self.mav.command_int_send(
             1, 1, frame, cmd, 0, 0, p[0], p[1], p[2], p[3], int(p[4]), int(p[5]), p[6]
@@ -310,7 +282,9 @@ def _modes(link: _Link) -> dict[str, Any]:
     from ._mav import decode_custom_mode
 
     out: dict[str, Any] = {}
-    for label, (main, sub) in MODES.items():
+    # Every mode PX4 v1.15 has, in the order of its numbers.
+    for mode in sorted(Mode, key=lambda m: m.value):
+        label, (main, sub) = mode.label, mode.value
         result = link.command("DO_SET_MODE", 1, main, sub)
         link.sleep(0.5)
         cm = link.custom_mode()
@@ -322,13 +296,14 @@ def _modes(link: _Link) -> dict[str, Any]:
 
 def _mission_items(home: tuple[int, int]) -> list[tuple[Any, ...]]:
     lat, lon = home
+    rel = FRAME_GLOBAL_REL_INT
     # seq, frame, command, params 1-4, x, y, z: takeoff, two waypoints, DO_JUMP back, RTL.
     return [
-        (0, 6, 22, 0.0, 0.0, 0.0, math.nan, lat, lon, 10.0),
-        (1, 6, 16, 0.0, 0.0, 0.0, math.nan, lat + 2000, lon, 10.0),
-        (2, 6, 16, 0.0, 0.0, 0.0, math.nan, lat + 2000, lon + 2000, 10.0),
-        (3, 2, 177, 1.0, 1.0, 0.0, 0.0, 0, 0, 0.0),
-        (4, 2, 20, 0.0, 0.0, 0.0, 0.0, 0, 0, 0.0),
+        (0, rel, CMD_TAKEOFF, 0.0, 0.0, 0.0, math.nan, lat, lon, 10.0),
+        (1, rel, CMD_WAYPOINT, 0.0, 0.0, 0.0, math.nan, lat + 2000, lon, 10.0),
+        (2, rel, CMD_WAYPOINT, 0.0, 0.0, 0.0, math.nan, lat + 2000, lon + 2000, 10.0),
+        (3, FRAME_MISSION, CMD_DO_JUMP, 1.0, 1.0, 0.0, 0.0, 0, 0, 0.0),
+        (4, FRAME_MISSION, CMD_RTL, 0.0, 0.0, 0.0, 0.0, 0, 0, 0.0),
     ]
 
 
