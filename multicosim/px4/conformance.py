@@ -101,7 +101,23 @@ class _Link:
             self.conn.port.sendto(
                 self.mav.heartbeat_encode(6, 8, 0, 0, 4).pack(self.mav), ("127.0.0.1", self.peer)
             )
-        m = self.conn.recv_match(blocking=True, timeout=wall)
+        return self._note(self.conn.recv_match(blocking=True, timeout=wall))
+
+    def catch_up(self, wall: float = 2.0) -> None:
+        """Read what is already waiting (for up to ``wall`` seconds).
+
+        Called before a question: a reader that has fallen behind a sped-up autopilot would
+        otherwise time the answer's window from its backlog's clock, not from the question.
+        """
+        limit = time.monotonic() + wall
+        while time.monotonic() < limit:
+            m = self.conn.recv_match(blocking=False)
+            if m is None:
+                return
+            self._note(m)
+
+    def _note(self, m: Any) -> Any:
+        """``m`` after counting it and advancing the clock; None for what is not the autopilot's."""
         if m is None:
             return None
         name = m.get_type()
@@ -137,6 +153,7 @@ class _Link:
         cmd = _command_id(name)
         p = [*params, *[0.0] * (7 - len(params))]
         for _ in range(3):
+            self.catch_up()
             self.mav.command_long_send(1, 1, cmd, 0, *p)
             ack = self.wait(lambda m: m.get_type() == "COMMAND_ACK" and m.command == cmd, sim_s)
             if ack is not None:
@@ -146,6 +163,7 @@ class _Link:
     def command_int(self, name: str, frame: int, *params: float, sim_s: float = 1.0) -> int | None:
         cmd = _command_id(name)
         p = [*params, *[0.0] * (7 - len(params))]
+        self.catch_up()
         self.mav.command_int_send(
             1, 1, frame, cmd, 0, 0, p[0], p[1], p[2], p[3], int(p[4]), int(p[5]), p[6]
         )
@@ -192,6 +210,7 @@ def _streams(link: _Link) -> dict[str, float]:
 def _params(link: _Link) -> dict[str, Any]:
     values: dict[int, tuple[str, int, Any]] = {}
     count = None
+    link.catch_up()
     link.mav.param_request_list_send(1, 1)
     for _ in range(4):
         # Until all have come, or none for 2 s (simulated).
@@ -216,6 +235,7 @@ def _param_answers(link: _Link) -> dict[str, Any]:
     def answer(send: Any) -> Any:
         link.texts.clear()
         for _ in range(3):  # as ground stations do: a datagram may be lost on a busy host
+            link.catch_up()
             send()
             m = link.wait(lambda m: m.get_type() in ("PARAM_VALUE", "PARAM_ERROR"), 1.0)
             if m is not None:
@@ -309,6 +329,7 @@ def _mission_items(home: tuple[int, int]) -> list[tuple[Any, ...]]:
 
 def _upload(link: _Link, items: list[tuple[Any, ...]], mission_type: int) -> Any:
     """Upload ``items``; the ack type and the kinds of requests seen."""
+    link.catch_up()
     link.mav.mission_count_send(1, 1, len(items), mission_type)
     requests: list[str] = []
     for _ in range(4 * len(items) + 4):
@@ -346,9 +367,11 @@ def _missions(link: _Link) -> dict[str, Any]:
     rally = [(0, 6, 5100, 0.0, 0.0, 0.0, 0.0, origin[0] + 3000, origin[1], 10.0)]
     out["rally"] = _upload(link, rally, 2)
     # Download with the legacy request: which message answers it.
+    link.catch_up()
     link.mav.mission_request_list_send(1, 1, 0)
     count = link.wait(lambda m: m.get_type() == "MISSION_COUNT", 2.0)
     out["download count"] = None if count is None else int(count.count)
+    link.catch_up()
     link.mav.mission_request_send(1, 1, 0, 0)
     reply = link.wait(
         lambda m: m.get_type() in ("MISSION_ITEM", "MISSION_ITEM_INT", "MISSION_ACK"), 2.0
@@ -356,12 +379,14 @@ def _missions(link: _Link) -> dict[str, Any]:
     out["legacy MISSION_REQUEST answer"] = None if reply is None else reply.get_type()
     link.mav.mission_ack_send(1, 1, 0, 0)
     for mtype, label in ((1, "fence"), (2, "rally")):
+        link.catch_up()
         link.mav.mission_request_list_send(1, 1, mtype)
         c = link.wait(lambda m, t=mtype: m.get_type() == "MISSION_COUNT" and m.mission_type == t, 2)
         out[f"download {label} count"] = None if c is None else int(c.count)
         if c is not None and c.count:
             link.mav.mission_ack_send(1, 1, 0, mtype)
     for mtype in (1, 2):
+        link.catch_up()
         link.mav.mission_clear_all_send(1, 1, mtype)
         link.wait(lambda m: m.get_type() == "MISSION_ACK", 1.0)
     return out

@@ -10,6 +10,7 @@ command, mode and mission protocol answers.
 
 from __future__ import annotations
 
+import socket
 from typing import Any
 
 import pytest
@@ -37,7 +38,7 @@ def test_the_recorded_px4_is_v1_15_4() -> None:
 
 def test_builtin_autopilot_answers_as_px4_does(builtin_answers: dict[str, Any]) -> None:
     diffs = conformance.differences(conformance.load(), builtin_answers)
-    assert diffs == []
+    assert diffs == [], "\n".join(diffs)
 
 
 def test_differences_are_found() -> None:
@@ -46,3 +47,23 @@ def test_differences_are_found() -> None:
     diffs = conformance.differences(px4, other)
     assert any(d.startswith("stream ATTITUDE_QUATERNION") for d in diffs)
     assert any("USER_1" in d for d in diffs)
+
+
+def test_the_probe_catches_up_with_a_backlog_before_it_asks(udp_port: int) -> None:
+    # Ten simulated seconds of telemetry wait unread (the probe was descheduled): the probe
+    # reads them before its next question, so that the answer's window starts from the
+    # autopilot's latest time, not from the backlog's oldest.
+    from multicosim.px4._mav import new_link
+
+    link = conformance._Link(udp_port, timeout=5.0)
+    autopilot = new_link(1, 1)
+    try:
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sender:
+            for ms in range(0, 10_001, 100):
+                msg = autopilot.attitude_encode(ms, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+                sender.sendto(msg.pack(autopilot), ("127.0.0.1", udp_port))
+        link.catch_up()
+        assert link.sim_ms == 10_000
+        assert link.counts["ATTITUDE"] == 101
+    finally:
+        link.close()
