@@ -4,6 +4,7 @@
     python -m bench --quick          # a shorter run (about 1 minute)
     python -m bench --only rover,trace   # some benchmarks: table only
     python -m bench --only ardupilot --merge   # re-measure some, keep the others' figures
+    python -m bench --smoke          # does every benchmark still run? (CI; writes nothing)
 
 The falsification benchmark takes longer and keeps its own README table:
 ``python bench/bench_search.py --readme``.
@@ -21,6 +22,7 @@ import argparse
 import json
 import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -51,10 +53,21 @@ BENCHMARKS = (
 Row = dict[str, Any]
 
 
-def run_benchmark(name: str, quick: bool) -> dict[str, Any]:
+# What the smoke run (--smoke) gives the falsification benchmark: one seed of each search,
+# multi-fidelity on one rover and one PX4 problem with a small budget, no real PX4: enough
+# to run every path of it.
+SEARCH_SMOKE = (
+    "--seeds", "1", "--rate-samples", "20", "--real-seeds", "0",
+    "--mf-seeds", "1", "--mf-budget", "10", "--mf-problems", "rover-lane,px4-altitude",
+)  # fmt: skip
+
+
+def run_benchmark(
+    name: str, quick: bool, results: Path = RESULTS, extra: tuple[str, ...] = ()
+) -> dict[str, Any]:
     """Run ``bench_NAME.py`` in its own process; its results, or why there are none."""
-    out = RESULTS / f"{name}.json"
-    cmd = [sys.executable, str(HERE / f"bench_{name}.py"), "--output", str(out)]
+    out = results / f"{name}.json"
+    cmd = [sys.executable, str(HERE / f"bench_{name}.py"), "--output", str(out), *extra]
     if quick:
         cmd.append("--quick")
     t0 = time.perf_counter()
@@ -669,6 +682,12 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--no-readme", action="store_true", help="leave README.md alone")
     parser.add_argument(
+        "--smoke",
+        action="store_true",
+        help="check that every benchmark runs, the falsification one too (quick, one seed); "
+        "figures are printed, not judged, and nothing is written",
+    )
+    parser.add_argument(
         "--merge",
         action="store_true",
         help="with --only: keep all.json's other results (their run's figures stay as they "
@@ -677,6 +696,10 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.merge and not args.only:
         parser.error("--merge re-measures some benchmarks: name them with --only")
+    if args.smoke:
+        if args.only or args.merge:
+            parser.error("--smoke runs every benchmark: leave out --only and --merge")
+        return smoke()
     names = args.only.split(",") if args.only else list(BENCHMARKS)
     unknown = sorted(set(names) - set(BENCHMARKS))
     if unknown:
@@ -738,6 +761,25 @@ def main(argv: list[str] | None = None) -> int:
         else:
             print(f"README.md has no {START} ... {END} markers: left alone", file=sys.stderr)
     return 1 if any("error" in r for r in results.values()) else 0
+
+
+def smoke() -> int:
+    """Run every benchmark briefly into a temporary directory; 1 if any of them failed."""
+    failed = []
+    with tempfile.TemporaryDirectory(prefix="mcs-bench-") as tmp:
+        for i, name in enumerate((*BENCHMARKS, "search"), 1):
+            print(f"[{i}/{len(BENCHMARKS) + 1}] {name} ...", end=" ", flush=True)
+            if name == "search":
+                result = run_benchmark(name, False, Path(tmp), SEARCH_SMOKE)
+            else:
+                result = run_benchmark(name, True, Path(tmp))
+            if "error" in result:
+                failed.append(name)
+                print(f"failed: {result['error']} ({result['elapsed_s']:.1f} s)")
+            else:
+                print(f"done ({result['elapsed_s']:.1f} s)")
+    print(f"{len(failed)} benchmark(s) failed" + (f": {', '.join(failed)}" if failed else ""))
+    return 1 if failed else 0
 
 
 if __name__ == "__main__":

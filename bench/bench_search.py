@@ -484,10 +484,11 @@ def main() -> int:
                 PROBLEMS[name], args.mf_seeds, args.mf_budget, args.mf_low.split(",")
             )
             for optimizer, low in mf[name]["low"].items():
+                speedup = "-" if low["speedup"] is None else f"{low['speedup']:.1f}x"
                 print(
-                    f"  {optimizer}: {low['wall_median_s']:.1f} s vs "
-                    f"{mf[name]['alone_wall_median_s']:.1f} s at medium alone "
-                    f"({low['speedup']:.1f}x), transfer {low['transferred']}/{low['tried']}",
+                    f"  {optimizer}: {_seconds(low['wall_median_s'])} vs "
+                    f"{_seconds(mf[name]['alone_wall_median_s'])} at medium alone "
+                    f"({speedup}), transfer {low['transferred']}/{low['tried']}",
                     flush=True,
                 )
             save(optimizers, args.seeds, problems, mf, real, args.output)
