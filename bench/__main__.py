@@ -468,7 +468,9 @@ def sitl_rows(data: dict[str, Any]) -> list[Row]:
             f"{share['px4']:.0%} / {share['world']:.0%} / {share['rest']:.0%}",
         ),
     ]
-    for level, t in data["transfer"].items():
+    transfer = data["transfer"]
+    for level in ("low", "medium"):
+        t = transfer[level]
         rows.append(
             row(
                 "transfer to real PX4",
@@ -478,6 +480,16 @@ def sitl_rows(data: dict[str, Any]) -> list[Row]:
                 f"{t['same_waypoints']}/{t['missions']}",
                 ratio=t["mean_distance_m"],
                 unit="m",
+            )
+        )
+    if "real PX4" in transfer:
+        rows.append(
+            row(
+                "transfer to real PX4",
+                "attitude jitter in the noisy medium world (mean change of roll and pitch per "
+                "50 ms sample): built-in medium / real PX4",
+                f"{transfer['medium']['jitter_deg']:.2f} deg / "
+                f"{transfer['real PX4']['jitter_deg']:.2f} deg",
             )
         )
     return rows

@@ -18,6 +18,8 @@ result says so. Usage: ``python bench/bench_sitl.py [--quick]``; prints a table 
 from __future__ import annotations
 
 import argparse
+import itertools
+import math
 import os
 import random
 import statistics
@@ -66,6 +68,13 @@ def fly(
     return result, times
 
 
+def jitter(result: px4.MissionResult) -> float:
+    """Mean change of roll and pitch between consecutive samples in the air (degrees)."""
+    air = [s for s in result.trajectory if s.armed and s.true_alt > 2.0]
+    steps = [abs(b.roll - a.roll) + abs(b.pitch - a.pitch) for a, b in itertools.pairwise(air)]
+    return math.degrees(statistics.fmean(steps)) / 2.0 if steps else math.nan
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--px4-binary", default=os.environ.get("MCS_PX4_BINARY"))
@@ -100,7 +109,11 @@ def main(argv: list[str] | None = None) -> int:
     for i, config in enumerate(missions(3 if args.quick else 10)):
         ref, ref_times = fly(config, "medium", sitl)
         row: dict[str, Any] = {"mission": i, "waypoints": len(config.mission)}
-        row["real PX4"] = {"duration_s": ref.duration, "wall_s": ref_times["send_s"]}
+        row["real PX4"] = {
+            "duration_s": ref.duration,
+            "wall_s": ref_times["send_s"],
+            "jitter_deg": jitter(ref),
+        }
         for level in ("low", "medium"):
             got, times = fly(config, level, None)
             mean, worst = got.path_gap(ref)
@@ -111,6 +124,7 @@ def main(argv: list[str] | None = None) -> int:
                 "max_distance_m": worst,
                 "time_ratio": got.duration / ref.duration,
                 "same_waypoints": [r.index for r in got.reached] == [r.index for r in ref.reached],
+                "jitter_deg": jitter(got),
             }
         flights.append(row)
     transfer = {
@@ -124,9 +138,14 @@ def main(argv: list[str] | None = None) -> int:
             ],
             "same_waypoints": sum(f[level]["same_waypoints"] for f in flights),
             "missions": len(flights),
+            "jitter_deg": statistics.fmean(f[level]["jitter_deg"] for f in flights),
         }
         for level in ("low", "medium")
     }
+    # How much the attitude shakes in the same noisy world: the estimator's and controller's
+    # response to sensor noise, beside real PX4's.
+    real_jitter = statistics.fmean(f["real PX4"]["jitter_deg"] for f in flights)
+    transfer["real PX4"] = {"jitter_deg": real_jitter}
     out = {"speed": speed, "transfer": transfer, "flights": flights}
     print(f"{'run':<12} {'sim s':>6} {'wall s':>7} {'x real':>7}")
     for name, r in speed.items():
@@ -135,12 +154,17 @@ def main(argv: list[str] | None = None) -> int:
     print(
         f"real PX4 wall time: PX4 {sh['px4']:.0%}, world {sh['world']:.0%}, rest {sh['rest']:.0%}"
     )
-    for level, t in transfer.items():
+    for level in ("low", "medium"):
+        t = transfer[level]
         print(
             f"built-in {level} vs real PX4 over {t['missions']} missions: path distance mean "
             f"{t['mean_distance_m']:.2f} m, max {t['max_distance_m']:.2f} m; time ratio "
             f"{t['time_ratio_mean']:.2f}; same waypoints {t['same_waypoints']}/{t['missions']}"
         )
+    print(
+        "attitude jitter (mean change of roll and pitch per sample): built-in medium "
+        f"{transfer['medium']['jitter_deg']:.3f} deg, real PX4 {real_jitter:.3f} deg"
+    )
     path = write_result("sitl", out, args.output)
     print(f"wrote {path.name}")
     return 0

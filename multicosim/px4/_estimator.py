@@ -43,7 +43,12 @@ K_BARO_BIAS = 0.01
 HGT_REF_GNSS = 1  # EKF2_HGT_REF; anything else (no range finder, no vision here): barometer
 MAG_GATE = 0.5  # rad: a heading innovation beyond this is rejected (a faulty magnetometer)
 STUCK_AFTER = 0.25  # s of bit-identical readings after which a sensor is taken as frozen
-K_TILT = 2.0  # rad/s per rad of tilt error
+# Tilt correction gains, rad/s per rad of tilt error. From GPS velocity (each fix's delta-v
+# against the integrated specific force) the gain is low: each fix's velocity noise turns the
+# attitude by K_TILT * noise / g, and at 2 the attitude shook four times as much as real
+# PX4's in the same noisy world. From gravity, on the ground without GPS, a steadier source.
+K_TILT = 0.5
+K_LEVEL = 1.0
 K_YAW = 0.6
 GPS_TIMEOUT = 0.5
 MAG_TIMEOUT = 0.2  # s: the magnetometer's correction lapses when no sample came for this long
@@ -203,7 +208,7 @@ class Estimator:
         # every turn and leave the vehicle flying tilted. Without aiding, PX4's EKF2 too keeps
         # the tilt its gyros give in the air (its fake position fuses at 10 m noise).
         if now - self.last_gps > GPS_TIMEOUT and not self.in_air:
-            self._tilt_from(fn, fe, fd, 0.0, 0.0, -GRAVITY, K_TILT * 0.5, now + 2.0 * dt)
+            self._tilt_from(fn, fe, fd, 0.0, 0.0, -GRAVITY, K_LEVEL, now + 2.0 * dt)
         vel, pos = self.vel, self.pos
         vel[0] += fn * dt
         vel[1] += fe * dt
