@@ -3,7 +3,7 @@
 PX4 SITL connects as a TCP client to its simulator on port 4560 + instance and waits for
 sensors: its clock is the ``time_usec`` of each HIL_SENSOR, and it answers every IMU sample
 with HIL_ACTUATOR_CONTROLS once its controllers have run on it (lockstep). It also asks for
-MSG_HIL_STATE_QUATERNION (ground truth) with a SET_MESSAGE_INTERVAL command.
+HIL_STATE_QUATERNION (ground truth) with a SET_MESSAGE_INTERVAL command.
 
 :class:`HilTcpBridge` is that simulator end for our worlds, as a participant stepped right
 after the world: each step it sends what the world (or an injector in front of PX4) published
