@@ -26,11 +26,16 @@ from typing import Any
 
 from ._mav import (
     CMD_DO_JUMP,
+    CMD_FENCE_POLYGON_INCLUSION,
+    CMD_RALLY_POINT,
     CMD_RTL,
     CMD_TAKEOFF,
     CMD_WAYPOINT,
+    FRAME_GLOBAL_INT,
     FRAME_GLOBAL_REL_INT,
     FRAME_MISSION,
+    MAV_AUTOPILOT_INVALID,
+    MAV_TYPE_GCS,
     MSG_AUTOPILOT_VERSION,
     MSG_FLIGHT_INFORMATION,
     MSG_GPS_GLOBAL_ORIGIN,
@@ -98,9 +103,8 @@ class _Link:
             # A ground station's heartbeat to the autopilot's own port: PX4 then answers
             # this socket whatever its link was set to send to.
             self._beat = time.monotonic()
-            self.conn.port.sendto(
-                self.mav.heartbeat_encode(6, 8, 0, 0, 4).pack(self.mav), ("127.0.0.1", self.peer)
-            )
+            beat = self.mav.heartbeat_encode(MAV_TYPE_GCS, MAV_AUTOPILOT_INVALID, 0, 0, 4)
+            self.conn.port.sendto(beat.pack(self.mav), ("127.0.0.1", self.peer))
         return self._note(self.conn.recv_match(blocking=True, timeout=wall))
 
     def catch_up(self, wall: float = 2.0) -> None:
@@ -359,12 +363,14 @@ def _missions(link: _Link) -> dict[str, Any]:
     items = _mission_items(origin)
     out["mission"] = _upload(link, items, 0)
     out["mission without jump"] = _upload(link, [items[0], items[1]], 0)
+    corners = ((9000, 9000), (9000, -9000), (-9000, -9000), (-9000, 9000))
     fence = [
-        (i, 5, 5001, 4.0, 0.0, 0.0, 0.0, origin[0] + dx, origin[1] + dy, 0.0)
-        for i, (dx, dy) in enumerate(((9000, 9000), (9000, -9000), (-9000, -9000), (-9000, 9000)))
+        (i, FRAME_GLOBAL_INT, CMD_FENCE_POLYGON_INCLUSION, 4.0, 0.0, 0.0, 0.0, lat, lon, 0.0)
+        for i, (lat, lon) in enumerate((origin[0] + dx, origin[1] + dy) for dx, dy in corners)
     ]
     out["fence"] = _upload(link, fence, 1)
-    rally = [(0, 6, 5100, 0.0, 0.0, 0.0, 0.0, origin[0] + 3000, origin[1], 10.0)]
+    rally_at = (origin[0] + 3000, origin[1])
+    rally = [(0, FRAME_GLOBAL_REL_INT, CMD_RALLY_POINT, 0.0, 0.0, 0.0, 0.0, *rally_at, 10.0)]
     out["rally"] = _upload(link, rally, 2)
     # Download with the legacy request: which message answers it.
     link.catch_up()
