@@ -39,7 +39,7 @@ def processes(marker: str) -> list[str]:
 
 def docker_resources() -> tuple[dict[str, str], dict[str, str]]:
     """Labelled containers and networks: id -> owner label."""
-    from multicosim.docker._engine import LABEL_OWNER, LABEL_RUN, client
+    from multicosim.docker.engine import LABEL_OWNER, LABEL_RUN, client
 
     api = client().api
     containers = {
@@ -59,7 +59,7 @@ def main(argv: list[str]) -> int:
     if command == "snapshot":
         Path(path).write_text(json.dumps(sorted([*containers, *networks])))
         return 0
-    from multicosim.docker._engine import owner_alive
+    from multicosim.docker.engine import owner_alive
 
     before = set(json.loads(Path(path).read_text()))
 

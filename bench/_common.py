@@ -95,7 +95,7 @@ def docker_reason() -> str | None:
     if engine_available() is not None:
         # The engine's own message names sockets and hosts: keep those out of the results.
         return "no Docker engine answers"
-    from multicosim.docker._engine import client
+    from multicosim.docker.engine import client
 
     try:
         client().images.get(RUNTIME_IMAGE)

@@ -24,7 +24,7 @@ sys.path.insert(0, str(ROOT / "tests" / "campaign"))
 
 import campaign_programs as cp
 
-from multicosim.campaign import ProcessExecutor, RayExecutor, latin_hypercube, run_campaign
+from multicosim.search.campaign import ProcessExecutor, RayExecutor, latin_hypercube, run_campaign
 
 
 def _noop() -> None:

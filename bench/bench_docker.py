@@ -29,15 +29,15 @@ import msgspec
 import zmq
 from _common import docker_reason, write_result
 
-from multicosim import _wire as wire
-from multicosim._messages import encode, type_name
+from multicosim.core import wire
+from multicosim.core.messages import encode, type_name
 from multicosim.docker import (
     RUNTIME_IMAGE,
     ContainerFirmwareComponent,
     ContainerSimulator,
 )
 from multicosim.docker import _selftest as st
-from multicosim.docker._engine import client, labels
+from multicosim.docker.engine import client, labels
 
 COMMAND = "multicosim serve multicosim.docker._selftest:echo --host 0.0.0.0 --port {port}"
 PORT = 5556

@@ -28,8 +28,8 @@ from _common import docker_reason, write_result
 
 import multicosim as mcs
 import multicosim.px4 as px4
-from multicosim.geo import LocalProjection
-from multicosim.px4._simulator import PX4Component, WorldComponent, default_world
+from multicosim.core.geo import LocalProjection
+from multicosim.px4.scenario import PX4Component, WorldComponent, default_world
 
 HOME = px4.Home()
 PROJ = LocalProjection(HOME.lat, HOME.lon)
@@ -99,7 +99,7 @@ def raw_mujoco(fidelity: str, simulated: float, repeat: int) -> dict[str, float]
     """Raw ``mj_step`` of the quadrotor, one lockstep period per call, hovering."""
     import mujoco
 
-    from multicosim.px4._airframe import NONE_IRIS
+    from multicosim.mavlink.airframe import NONE_IRIS
 
     world = default_world(fidelity)  # type: ignore[arg-type]
     best = float("inf")

@@ -24,8 +24,8 @@ from typing import Any
 from _common import write_result
 
 import multicosim.px4 as px4
-from multicosim.geo import LocalProjection
-from multicosim.px4 import _mav
+from multicosim.core.geo import LocalProjection
+from multicosim.mavlink import dialect as _mav
 
 HOME = px4.Home()
 PROJ = LocalProjection(HOME.lat, HOME.lon)

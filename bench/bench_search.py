@@ -45,8 +45,8 @@ sys.path.insert(0, str(ROOT / "scenarios"))
 from search_problems import PROBLEMS, Problem
 
 import multicosim.px4 as px4
-from multicosim.campaign import run_campaign
-from multicosim.falsify import (
+from multicosim.search.campaign import run_campaign
+from multicosim.search.falsify import (
     OPTIMIZERS,
     Choice,
     HypothesisSearch,

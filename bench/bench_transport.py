@@ -41,7 +41,7 @@ import zmq
 from _common import write_result
 
 import multicosim as mcs
-from multicosim import _wire as wire
+from multicosim.core import wire
 
 HERE = Path(__file__).resolve().parent
 TARGET_RATIO = 1.5

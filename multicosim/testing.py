@@ -16,9 +16,10 @@ from __future__ import annotations
 import os
 import time
 
-from ._check import Check, ComponentReport, check_component
-from ._messages import Message
-from ._runtime import FirmwareContext, StepContext, Subscription, firmware
+from .core.messages import Message
+from .local.check import Check, ComponentReport, check_component
+from .runtime.context import FirmwareContext, StepContext, Subscription
+from .runtime.serve import firmware
 
 __all__ = [
     "Cart",

@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING, Any
 import pytest
 
 if TYPE_CHECKING:
-    from multicosim.ardupilot._faults import FaultsComponent
+    from multicosim.ardupilot.faults import FaultsComponent
     from multicosim.attacks import InjectorComponent, Model
 
 __all__ = ["GpsNoise", "gps_noise"]

@@ -26,14 +26,14 @@ from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
 import pytest
 
-from multicosim._errors import MulticosimError
-from multicosim._fidelity import BACKENDS, FIDELITIES
+from multicosim.core.errors import MulticosimError
+from multicosim.core.fidelity import BACKENDS, FIDELITIES
 
 from ._signals import SigtermAsInterrupt
 
 if TYPE_CHECKING:
-    from multicosim._local import ProcessSimulator
     from multicosim.docker import ContainerSimulator
+    from multicosim.local import ProcessSimulator
 
 __all__ = [
     "BACKENDS",
@@ -348,7 +348,7 @@ def _sweep_once(activity: _Activity) -> None:
     if activity.swept:
         return
     activity.swept = True
-    from multicosim._local import sweep_stale_runs
+    from multicosim.local import sweep_stale_runs
 
     killed = sweep_stale_runs()
     if killed:
@@ -490,7 +490,7 @@ class SimulationRegistry:
 
     def stop(self, simulations: list[Any]) -> None:
         """Stop ``simulations`` (newest first); raise every failure together."""
-        from multicosim._simulation import stop_all
+        from multicosim.local.simulation import stop_all
 
         steps = []
         for sim in reversed(simulations):
@@ -579,7 +579,7 @@ def require_docker() -> None:
         docker_unavailable("no Docker SDK (pip install 'multicosim[docker]')", str(exc))
     reason = engine_available()
     if reason is not None:
-        from multicosim.docker._engine import engine_url
+        from multicosim.docker.engine import engine_url
 
         docker_unavailable(f"no Docker engine at {engine_url()}", reason)
 
@@ -601,7 +601,7 @@ def mcs_runtime_image() -> str:
     """
     require_docker()
     from multicosim.docker import RUNTIME_IMAGE, build_images
-    from multicosim.docker._engine import ImageNotFound, client
+    from multicosim.docker.engine import ImageNotFound, client
 
     try:
         return build_images()[0]
@@ -625,7 +625,7 @@ def mcs_simulator(
 
         inner: ProcessSimulator | ContainerSimulator = ContainerSimulator(seed=mcs_seed)
     else:
-        from multicosim._local import ProcessSimulator
+        from multicosim.local import ProcessSimulator
 
         inner = ProcessSimulator(seed=mcs_seed)
     return tracked(inner, mcs_simulations)
@@ -638,7 +638,7 @@ def mcs_campaign_executor(mcs_settings: Settings) -> Iterator[Any]:
     Pass it on: ``run_campaign(simulate, requirement, design, executor=mcs_campaign_executor)``.
     A Ray connection is made on first use and closed at the end of the session.
     """
-    from multicosim.campaign import ProcessExecutor, RayExecutor
+    from multicosim.search.campaign import ProcessExecutor, RayExecutor
 
     if mcs_settings.ray is None:
         yield ProcessExecutor()
@@ -661,7 +661,7 @@ def mcs_fresh_simulation() -> Any:
         def test_x(mcs_fresh_simulation, mission):
             with mcs_fresh_simulation(rover.Rover) as simulation: ...
     """
-    from multicosim.strategies import FreshSimulations
+    from multicosim.search.strategies import FreshSimulations
 
     return FreshSimulations()
 

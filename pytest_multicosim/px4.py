@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING, Any
 
 import pytest
 
-from multicosim._fidelity import check_fidelity
+from multicosim.core.fidelity import check_fidelity
 
 from .plugin import tracked
 

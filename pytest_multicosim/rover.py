@@ -23,12 +23,12 @@ from typing import TYPE_CHECKING, Any
 
 import pytest
 
-from multicosim._fidelity import check_fidelity
+from multicosim.core.fidelity import check_fidelity
 
 from .plugin import tracked
 
 if TYPE_CHECKING:
-    from multicosim.mujoco import WorldConfig
+    from multicosim.physics import WorldConfig
     from multicosim.rover import Rover, RoverSimulation, SensorNoise
 
 __all__ = [

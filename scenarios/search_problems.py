@@ -50,9 +50,9 @@ import multicosim as mcs
 import multicosim.attacks as attacks
 import multicosim.px4 as px4
 import multicosim.rover as rover
-from multicosim.falsify import Choice, FalsificationResult, Integer, Level, Real, falsify
-from multicosim.geo import LocalProjection
-from multicosim.requirements import Requirement
+from multicosim.core.geo import LocalProjection
+from multicosim.search.falsify import Choice, FalsificationResult, Integer, Level, Real, falsify
+from multicosim.search.requirements import Requirement
 
 __all__ = ["PROBLEMS", "Problem"]
 

@@ -18,7 +18,7 @@ import math
 import pytest
 
 import multicosim.ardupilot as ardupilot
-from multicosim.geo import LocalProjection
+from multicosim.core.geo import LocalProjection
 from pytest_multicosim.gps_noise import GpsNoise
 
 LEVELS = ("medium", "high")

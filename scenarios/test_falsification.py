@@ -21,11 +21,11 @@ from hypothesis import strategies as st
 
 import multicosim.attacks as attacks
 import multicosim.px4 as px4
-import multicosim.strategies as mst
+import multicosim.search.strategies as mst
 from multicosim.attacks import strategies as ast
-from multicosim.falsify import HypothesisSearch, falsify
-from multicosim.geo import LocalProjection
-from multicosim.requirements import Requirement
+from multicosim.core.geo import LocalProjection
+from multicosim.search.falsify import HypothesisSearch, falsify
+from multicosim.search.requirements import Requirement
 
 HOME = px4.Home()
 PROJ = LocalProjection(HOME.lat, HOME.lon)
@@ -126,7 +126,7 @@ def test_gps_spoof_breaks_tracking_and_shrinks_to_the_limit(mcs_seed: int) -> No
 FAILING_PROPERTY = """
 from hypothesis import Phase, given, settings
 
-import multicosim.strategies as mst
+import multicosim.search.strategies as mst
 from gps_falsification import MISSION, TRACKING, attacked_px4, horizontal_spoofs
 
 # No explain phase: it re-runs the minimal example with parts varied, simulations each.

@@ -20,7 +20,7 @@ import multicosim as mcs
 import multicosim.attacks as attacks
 import multicosim.px4 as px4
 import multicosim.rover as rover
-from multicosim.geo import LocalProjection
+from multicosim.core.geo import LocalProjection
 from multicosim.rover import SENSOR_TOPICS, Mission, Position
 from pytest_multicosim.gps_noise import GpsNoise
 

@@ -13,7 +13,7 @@ import math
 import pytest
 
 import multicosim.px4 as px4
-from multicosim.geo import LocalProjection
+from multicosim.core.geo import LocalProjection
 from pytest_multicosim import Simulations
 
 HOME = px4.Home()

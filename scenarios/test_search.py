@@ -17,7 +17,7 @@ import pytest
 from search_problems import PROBLEMS
 
 import multicosim.px4 as px4
-from multicosim.falsify import default_optimizer
+from multicosim.search.falsify import default_optimizer
 from pytest_multicosim.px4 import RealPX4
 
 

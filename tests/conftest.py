@@ -12,7 +12,7 @@ import pytest
 # In-process pytester runs forget the modules first imported inside them, and C extensions
 # cannot be imported twice in a process (numpy refuses; pyzmq's exceptions stop matching): the
 # outer session imports the ones inner runs use before any inner run can.
-for _name in ("numpy", "zmq", "mujoco", "matplotlib.figure", "docker", "multicosim._local"):
+for _name in ("numpy", "zmq", "mujoco", "matplotlib.figure", "docker", "multicosim.local"):
     importlib.import_module(_name)
 
 # A suite started as a background job (``cmd &`` without job control) inherits SIGINT

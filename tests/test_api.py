@@ -10,11 +10,6 @@ import pytest
 import multicosim as mcs
 
 EXPECTED = {
-    "AttachedComponent",
-    "ContainerComponent",
-    "ContainerNode",
-    "ContainerSimulation",
-    "ContainerSimulator",
     "CampaignInterrupted",
     "ComponentCheckError",
     "EngineUnavailableError",
@@ -25,8 +20,6 @@ EXPECTED = {
     "FormulaError",
     "ImageMissingError",
     "PhysicsDivergedError",
-    "ContainerFirmwareComponent",
-    "FirmwareComponent",
     "Requirement",
     "RequirementViolation",
     "ScenarioSimulation",
@@ -81,6 +74,14 @@ def test_exported_names_are_the_intended_ones() -> None:
         assert getattr(mcs, name) is not None, name
 
 
+def test_container_classes_come_from_the_docker_package() -> None:
+    import multicosim.docker as docker
+
+    for name in ("ContainerSimulator", "ContainerComponent", "FirmwareComponent"):
+        assert not hasattr(mcs, name), name
+        assert name in docker.__all__
+
+
 def test_unknown_attribute_is_an_attribute_error() -> None:
     with pytest.raises(AttributeError, match="no attribute 'Nope'"):
         _ = mcs.Nope
@@ -122,7 +123,7 @@ def test_version_matches_package_metadata() -> None:
 
 
 def test_require_names_the_extra_for_a_missing_module() -> None:
-    from multicosim._deps import require
+    from multicosim.core.deps import require
 
     assert require("json", "core").dumps(1) == "1"
     with pytest.raises(mcs.DependencyMissingError, match=r"multicosim\[trace\]") as info:
@@ -131,32 +132,15 @@ def test_require_names_the_extra_for_a_missing_module() -> None:
 
 
 @pytest.mark.parametrize(
-    ("old", "new"),
-    [
-        ("ParticipantComponent", "InProcessComponent"),
-        ("ParticipantNode", "InProcessNode"),
-        ("FirmwareProcessComponent", "ProcessFirmwareComponent"),
-        ("FirmwareThreadComponent", "ThreadFirmwareComponent"),
-        ("FirmwareNode", "ProcessFirmwareNode"),
-        ("InProcessSimulator", "SelfContainedSimulator"),
-        ("InProcessSimulation", "SelfContainedSimulation"),
-    ],
+    "old",
+    ["ParticipantComponent", "FirmwareNode", "InProcessSimulator", "InProcessSimulation"],
 )
-def test_former_names_are_deprecated_aliases(old: str, new: str) -> None:
-    with pytest.warns(DeprecationWarning, match=f"use multicosim.{new}"):
-        assert getattr(mcs, old) is getattr(mcs, new)
-    assert old not in mcs.__all__
-
-
-def test_former_px4_sample_is_a_deprecated_alias() -> None:
-    import multicosim.px4 as px4
-
-    with pytest.warns(DeprecationWarning, match="use multicosim.px4.FlightSample"):
-        assert px4.Sample is px4.FlightSample
+def test_round_one_aliases_are_gone(old: str) -> None:
+    with pytest.raises(AttributeError, match=f"no attribute {old!r}"):
+        getattr(mcs, old)
 
 
 def test_the_papers_names_are_aliases() -> None:
     import multicosim.docker
 
-    assert mcs.FirmwareComponent is mcs.ContainerFirmwareComponent
-    assert multicosim.docker.FirmwareComponent is mcs.ContainerFirmwareComponent
+    assert multicosim.docker.FirmwareComponent is multicosim.docker.ContainerFirmwareComponent

@@ -18,8 +18,9 @@ import zmq
 
 import multicosim as mcs
 import multicosim.rover as rover
-from multicosim import _rundirs, testing
-from multicosim.mujoco import WorldConfig
+from multicosim import testing
+from multicosim.local import rundirs as _rundirs
+from multicosim.physics import WorldConfig
 
 pytestmark = pytest.mark.usefixtures("no_leaks")
 

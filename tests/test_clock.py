@@ -10,7 +10,7 @@ import pytest
 
 import multicosim as mcs
 from multicosim import testing
-from multicosim._clock import Scheduler, to_ns
+from multicosim.core.clock import Scheduler, to_ns
 
 
 class Tick(mcs.Message):

@@ -28,7 +28,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import multicosim.rover as rover
-from multicosim import _wire as wire
+from multicosim.core import wire
 
 pytestmark = pytest.mark.usefixtures("no_leaks")
 

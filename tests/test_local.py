@@ -15,8 +15,8 @@ import pytest
 
 import multicosim as mcs
 from multicosim import testing
-from multicosim._local import ProcessFirmwareNode, sweep_stale_runs
-from multicosim._rundirs import _process_run_id
+from multicosim.local import ProcessFirmwareNode, sweep_stale_runs
+from multicosim.local.rundirs import _process_run_id
 
 CART = "python -m multicosim participant multicosim.testing:Cart"
 DRIVE = "python -m multicosim serve multicosim.testing:drive --port {port}"

@@ -8,7 +8,7 @@ import msgspec
 import pytest
 
 import multicosim as mcs
-from multicosim._messages import decode, encode, json_schema, type_name
+from multicosim.core.messages import decode, encode, json_schema, type_name
 
 
 class Point(mcs.Message):

@@ -19,11 +19,11 @@ simulation starts.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
-from ..geo import Home
-from ..mujoco._config import WorldConfig
-from ..px4._config import (
+from ..core.deps import lazy_exports
+from ..core.geo import Home
+from ..mavlink.mission import (
     Configuration,
     FlightSample,
     Geofence,
@@ -31,6 +31,7 @@ from ..px4._config import (
     Waypoint,
     WaypointReached,
 )
+from ..physics.config import WorldConfig
 
 _LAZY = {
     "BACKENDS": "._simulator",
@@ -42,7 +43,7 @@ _LAZY = {
     "Copter": "._simulator",
     "Fidelity": "._simulator",
     "Rover": "._simulator",
-    "SITL": "._launch",
+    "SITL": ".launch",
     "default_world": "._simulator",
 }
 
@@ -69,7 +70,6 @@ __all__ = [
 ]
 
 if TYPE_CHECKING:
-    from ._launch import SITL
     from ._simulator import (
         BACKENDS,
         FIRMWARE_FIDELITIES,
@@ -82,26 +82,7 @@ if TYPE_CHECKING:
         Rover,
         default_world,
     )
+    from .launch import SITL
 
 
-# Former names, kept as deprecated aliases: old name -> new name.
-_DEPRECATED = {"FIDELITIES": "FIRMWARE_FIDELITIES"}
-
-
-def __getattr__(name: str) -> Any:
-    if name in _DEPRECATED:
-        from .._deps import renamed
-
-        return __getattr__(renamed(__name__, name, _DEPRECATED))
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'multicosim.ardupilot' has no attribute {name!r}")
-    import importlib
-
-    value = getattr(importlib.import_module(module, __name__), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(__all__)
+__getattr__, __dir__ = lazy_exports(__name__, _LAZY, __all__)

@@ -39,11 +39,11 @@ from pathlib import Path
 
 import msgspec
 
-from .._errors import MulticosimError, NodeCrashedError
-from .._local import Watch, mark_reported
-from .._runtime import StepContext, Subscription
-from ..px4._hil import MavlinkPacket, Truth
-from ..px4._hilserver import RECV, FirstMavlinkClient, Lockstep
+from ..core.errors import MulticosimError, NodeCrashedError
+from ..local import Watch, mark_reported
+from ..mavlink.hil import MavlinkPacket, Truth
+from ..mavlink.hil_bridge import RECV, FirstMavlinkClient, Lockstep
+from ..runtime.context import StepContext, Subscription
 
 __all__ = [
     "DOWNLINK",

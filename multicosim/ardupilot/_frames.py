@@ -21,9 +21,9 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from .._errors import ConfigurationError
-from ..geo import GRAVITY
-from ..px4._airframe import Airframe
+from ..core.errors import ConfigurationError
+from ..core.geo import GRAVITY
+from ..mavlink.airframe import Airframe
 
 __all__ = [
     "FRAME_RATE",

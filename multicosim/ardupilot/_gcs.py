@@ -1,6 +1,6 @@
 """How the ground station flies ArduPilot: its modes, parameters, mission and start sequence.
 
-The ground station (:mod:`multicosim.px4._gcs`) speaks MAVLink's protocols to any autopilot;
+The ground station (:mod:`multicosim.mavlink.gcs`) speaks MAVLink's protocols to any autopilot;
 this is what ArduPilot does differently from PX4:
 
 * telemetry is asked for (SET_MESSAGE_INTERVAL): ArduPilot streams nothing unrequested;
@@ -22,9 +22,7 @@ import math
 from collections.abc import Callable
 from typing import Any
 
-from ..px4._config import Configuration
-from ..px4._gcs import GroundStation, MissionFailed, Procedure
-from ..px4._mav import (
+from ..mavlink.dialect import (
     CMD_ARM_DISARM,
     CMD_DO_SET_MODE,
     CMD_LAND,
@@ -41,6 +39,8 @@ from ..px4._mav import (
     MSG_MISSION_CURRENT,
     MSG_SYS_STATUS,
 )
+from ..mavlink.gcs import GroundStation, MissionFailed, Procedure
+from ..mavlink.mission import Configuration
 
 __all__ = ["ArduPilotProcedure", "CopterProcedure", "RoverProcedure"]
 

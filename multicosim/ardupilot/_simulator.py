@@ -20,10 +20,11 @@ import dataclasses
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, cast
 
-from .._errors import ConfigurationError, NodeStartError
-from .._fidelity import BACKENDS, FIRMWARE_FIDELITIES, Backend, FirmwareFidelity
-from .._interfaces import Component, Node, NodeId
-from .._local import (
+from ..core.errors import ConfigurationError, NodeStartError
+from ..core.fidelity import BACKENDS, FIRMWARE_FIDELITIES, Backend, FirmwareFidelity
+from ..core.geo import Home
+from ..core.interfaces import Component, Node, NodeId
+from ..local import (
     InProcessComponent,
     InProcessFirmwareComponent,
     LocalEnvironment,
@@ -32,27 +33,19 @@ from .._local import (
     ScenarioSimulation,
     required_images,
 )
-from ..geo import Home
-from ..mujoco._config import WorldConfig
-from ..px4._config import Configuration, Geofence
-from ..px4._gcs import GcsSpec, Procedure, ground_station
-from ..px4._simulator import MissionNode
-from ..rover._messages import MAX_SPEED
+from ..mavlink.gcs import GcsSpec, Procedure, ground_station
+from ..mavlink.mission import Configuration, Geofence
+from ..mavlink.node import MissionNode
+from ..physics.config import WorldConfig
+from ..rover import MAX_SPEED
 from ._bridge import DOWNLINK, SERVO_TOPIC, TRUTH_TOPIC, UPLINK
 from ._frames import FRAME_RATE, copter_params, rover_params
-from ._launch import (
-    NO_RC_RECEIVER,
-    SITL,
-    ArduPilotNodes,
-    Vehicle,
-    check_params,
-    start_ardupilot,
-)
+from .launch import NO_RC_RECEIVER, SITL, ArduPilotNodes, Vehicle, check_params, start_ardupilot
 
 if TYPE_CHECKING:
     from ..docker import ContainerEnvironment, ContainerSimulator
     from ..trace import TraceOptions
-    from ._faults import FaultsComponent
+    from .faults import FaultsComponent
 
 __all__ = [
     "BACKENDS",
@@ -126,7 +119,7 @@ class WorldComponent:
         world, vehicle = self.world, self.vehicle
 
         def factory() -> Any:
-            from ..mujoco._world import World
+            from ..physics.world import World
             from ._vehicles import ArduCopterVehicle, ArduRoverVehicle
 
             plugin = ArduCopterVehicle() if vehicle == "copter" else ArduRoverVehicle()
@@ -180,7 +173,7 @@ class ArduPilotComponent:
         if not isinstance(self.firmware, SITL):
             raise ConfigurationError("firmware", self.firmware, "a multicosim.ardupilot.SITL")
         if not isinstance(self.world, WorldConfig):
-            raise ConfigurationError("world", self.world, "a multicosim.mujoco.WorldConfig")
+            raise ConfigurationError("world", self.world, "a multicosim.physics.WorldConfig")
         if not isinstance(self.geofence, Geofence):
             raise ConfigurationError("geofence", self.geofence, "a px4.Geofence")
         rate = self.telemetry_rate
@@ -198,7 +191,7 @@ class ArduPilotComponent:
         """The parameters ArduPilot boots with: no RC receiver (``NO_RC_RECEIVER``), the
         frame's, then ``params``, the firmware's."""
         if self.vehicle == "copter":
-            from ..px4._airframe import NONE_IRIS
+            from ..mavlink.airframe import NONE_IRIS
 
             frame = copter_params(NONE_IRIS)
         else:
@@ -291,7 +284,7 @@ class ArduPilotSimulation(ScenarioSimulation):
     def trace_options(self) -> TraceOptions:
         """What a recorder of this simulation should know: the MAVLink link decoded, the
         world's truth and ArduPilot's outputs typed, Foxglove channels."""
-        from ..px4._trace import mission_trace
+        from ..mavlink.trace import mission_trace
         from ._bridge import ServoOutputs
 
         world = self.firmware._component.world
@@ -351,7 +344,7 @@ class _ArduPilotSimulator:
             )
         world = world if world is not None else default_world(self.vehicle, fidelity)
         if not isinstance(world, WorldConfig):
-            raise ConfigurationError("world", world, "a multicosim.mujoco.WorldConfig")
+            raise ConfigurationError("world", world, "a multicosim.physics.WorldConfig")
         world = dataclasses.replace(world, period=frame_period(world))
         self.world = world
         self.fidelity: Fidelity = fidelity
@@ -404,7 +397,7 @@ class _ArduPilotSimulator:
         The models map onto ArduPilot's own simulated sensor faults (its ``SIM_GPS_*`` and
         ``SIM_BARO_*`` parameters), set over MAVLink when each model's window opens.
         """
-        from ._faults import FaultsComponent, FaultsConfig
+        from .faults import FaultsComponent, FaultsConfig
 
         config = FaultsConfig(
             sensor=sensor,
@@ -449,7 +442,7 @@ class Copter(_ArduPilotSimulator):
     """ArduCopter SITL flying our quadrotor (PX4's ``none_iris`` airframe) as its quad X.
 
     ``ardupilot.Copter(world, fidelity="medium", firmware_dir=PATH)``: ``world`` a
-    :class:`~multicosim.mujoco.WorldConfig` (None: the fidelity's, see ``default_world``),
+    :class:`~multicosim.physics.WorldConfig` (None: the fidelity's, see ``default_world``),
     whose timestep must divide ArduPilot's 2.5 ms frame; ``firmware_dir`` ArduPilot SITL's
     directory (``bin/arducopter``, ``params/copter.parm``), or ``image`` (``backend="docker"``)
     or ``firmware=SITL(...)``; ``params`` ArduPilot parameters set at boot; ``seed`` fixes

@@ -16,19 +16,19 @@ from typing import TYPE_CHECKING, Any
 import mujoco
 import numpy as np
 
-from ..geo import LocalProjection
-from ..mujoco._frames import NedState, ned_state, truth
-from ..mujoco._quadrotor import QuadrotorVehicle
-from ..mujoco._rover import RoverVehicle
-from ..px4._airframe import NONE_IRIS, Airframe
-from ..rover._messages import MAX_SPEED, MAX_STEERING
-from ..rover._vehicle import AXLE_HEIGHT
+from ..core.geo import LocalProjection
+from ..mavlink.airframe import NONE_IRIS, Airframe
+from ..mavlink.hil import truth
+from ..mavlink.quadrotor import QuadrotorVehicle
+from ..physics.frames import NedState, ned_state
+from ..rover import AXLE_HEIGHT, MAX_SPEED, MAX_STEERING
+from ..rover.body import RoverVehicle
 from ._bridge import SERVO_TOPIC, TRUTH_TOPIC, ServoOutputs
 from ._frames import check_quad_x, motor_outputs, rover_command
 
 if TYPE_CHECKING:
-    from .._runtime import StepContext, Subscription
-    from ..mujoco._world import Physics
+    from ..physics.world import Physics
+    from ..runtime.context import StepContext, Subscription
 
 __all__ = ["ArduCopterVehicle", "ArduRoverVehicle"]
 

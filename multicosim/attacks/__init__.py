@@ -19,22 +19,22 @@ injector reads it there, corrupts it with seeded, combinable models, each active
 Models: :class:`Gaussian` noise, :class:`Bias`, random-walk :class:`Drift`, :class:`Jump`
 (a spoof, optionally ramped), :class:`Dropout`, :class:`Delay`. Sensors: the rover's
 ``position`` (alias ``gps``), ``magnetometer``, ``imu``, ``wheel_speed``; PX4's ``gps``,
-``mag``, ``baro``, ``imu``. Quantities (what additive models offset, ``on=``): positions in
+``mag``, ``baro``, ``imu``; a vehicle of your own registers its sensors with
+:func:`register`. Quantities (what additive models offset, ``on=``): positions in
 metres east/north/up, ``heading`` in radians, fields and rates per body axis.
 """
 
 from __future__ import annotations
 
 from ._injector import PROGRAM, InjectorComponent, InjectorConfig, SensorInjector, injector
-from ._models import Additive, Bias, Delay, Drift, Dropout, Gaussian, Jump, Model, Window, is_zero
-from ._scenarios import inject, vehicle_of
-from ._sensors import ALIASES, SENSORS, VEHICLES, Quantity, Sensor, Vehicle, sensor
+from ._scenarios import SimulatesFaults, add_injector, inject
+from .models import Additive, Bias, Delay, Drift, Dropout, Gaussian, Jump, Model, Window, is_zero
+from .sensors import ALIASES, SENSORS, Quantity, Sensor, canonical, register, sensor, vehicles
 
 __all__ = [
     "ALIASES",
     "PROGRAM",
     "SENSORS",
-    "VEHICLES",
     "Additive",
     "Bias",
     "Delay",
@@ -48,11 +48,14 @@ __all__ = [
     "Quantity",
     "Sensor",
     "SensorInjector",
-    "Vehicle",
+    "SimulatesFaults",
     "Window",
+    "add_injector",
+    "canonical",
     "inject",
     "injector",
     "is_zero",
+    "register",
     "sensor",
-    "vehicle_of",
+    "vehicles",
 ]

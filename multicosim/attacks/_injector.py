@@ -21,15 +21,16 @@ from typing import TYPE_CHECKING, Any
 
 import msgspec
 
-from .._clock import NS
-from .._errors import ConfigurationError
-from .._interfaces import Node
-from .._local import InProcessComponent, LocalEnvironment, ProcessComponent, participant_command
-from ._models import Additive, Delay, Dropout, Model, Offsets, check_models
-from ._sensors import Sensor, Vehicle, Wire, canonical, sensor
+from ..core.clock import NS
+from ..core.errors import ConfigurationError
+from ..core.interfaces import Node
+from ..local import InProcessComponent, LocalEnvironment, ProcessComponent, participant_command
+from ..mavlink.hil import Wire
+from .models import Additive, Delay, Dropout, Model, Offsets, check_models
+from .sensors import Sensor, canonical, load, module_of, sensor
 
 if TYPE_CHECKING:
-    from .._runtime import StepContext, Subscription
+    from ..runtime.context import StepContext, Subscription
 
 __all__ = ["PROGRAM", "InjectorComponent", "InjectorConfig", "SensorInjector", "injector"]
 
@@ -48,23 +49,29 @@ class InjectorConfig(msgspec.Struct, frozen=True, kw_only=True):
 
     ``vehicle`` and ``sensor`` name the message (``"rover"``: ``position``/``gps``,
     ``magnetometer``, ``imu``, ``wheel_speed``; ``"px4"``: ``gps``, ``mag``, ``baro``,
-    ``imu``); ``source`` is the raw topic read, ``target`` the topic written; ``period``
+    ``imu``; or any vehicle registered with :func:`multicosim.attacks.register`, whose
+    registering ``module`` an injector in another process imports); ``source`` is the raw
+    topic read, ``target`` the topic written; ``period``
     (s) is how often it steps (the world's publishing period, so readings pass in the
     instant they are published); ``wire`` is how PX4 payloads travel (``native`` Structs or
     packed ``mavlink`` frames). Validated on construction.
     """
 
-    vehicle: Vehicle
+    vehicle: str
     sensor: str
     source: str
     target: str
     period: float
     models: tuple[Model, ...] = ()
     wire: Wire = "native"
+    module: str = ""
 
     def __post_init__(self) -> None:
+        load(self.vehicle, self.module)
         name = canonical(self.vehicle, self.sensor)
         msgspec.structs.force_setattr(self, "sensor", name)
+        if not self.module:
+            msgspec.structs.force_setattr(self, "module", module_of(self.vehicle))
         _topic("source", self.source)
         _topic("target", self.target)
         if self.source == self.target:
@@ -81,9 +88,9 @@ class InjectorConfig(msgspec.Struct, frozen=True, kw_only=True):
             raise ConfigurationError("period", period, "0 < period <= 1 s")
         if self.wire not in WIRES:
             raise ConfigurationError("wire", self.wire, f"one of {WIRES}")
-        if self.wire == "mavlink" and self.vehicle != "px4":
-            raise ConfigurationError("wire", self.wire, f"'native' for the {self.vehicle}")
         spec = self.spec
+        if self.wire == "mavlink" and not spec.hil:
+            raise ConfigurationError("wire", self.wire, f"'native' for the {self.vehicle}")
         models = check_models(
             self.models,
             {name: q.size for name, q in spec.quantities.items()},

@@ -1,8 +1,8 @@
-"""Placing an injector in the shipped scenarios (the rover and PX4 Simulators).
+"""Placing an injector in a scenario: :func:`inject`, and what a scenario offers it.
 
-:func:`inject` remaps the sensor's topic, builds the injector for the scenario's fidelity and
-backend (in-process at low fidelity, a local process above, a container on the Docker
-backend) and adds it so that it steps after the world and before the firmware::
+A scenario takes faults by implementing :class:`SimulatesFaults`: the rover and PX4 remap
+the sensor's topic and add an injector (built by :func:`add_injector`) between world and
+firmware; ArduPilot maps the models onto its firmware's own simulated faults::
 
     simulator = rover.Rover(fidelity="low")
     attacks.inject(simulator, "gps", [attacks.Jump(offset=(3.0, 0.0, 0.0), start=2.0)])
@@ -16,49 +16,26 @@ and the injector republishes on the topic the controller reads; PX4's autopilot 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any, Protocol, overload
+from typing import Any, Protocol, runtime_checkable
 
-from .._errors import ConfigurationError, MulticosimError
+from ..core.errors import ConfigurationError, MulticosimError
 from ._injector import InjectorComponent, InjectorConfig
-from ._models import Model
-from ._sensors import Vehicle, canonical
+from .models import Model
 
-__all__ = ["SimulatesFaults", "inject", "vehicle_of"]
-
-
-def vehicle_of(simulator: object) -> Vehicle:
-    """Which scenario ``simulator`` is (``"rover"`` or ``"px4"``); ConfigurationError if neither."""
-    from ..rover import Rover
-
-    if isinstance(simulator, Rover):
-        return "rover"
-    from ..px4 import PX4
-
-    if isinstance(simulator, PX4):
-        return "px4"
-    raise ConfigurationError(
-        "simulator", simulator, "a multicosim.rover.Rover or multicosim.px4.PX4 (not started)"
-    )
+__all__ = ["SimulatesFaults", "add_injector", "inject"]
 
 
+@runtime_checkable
 class SimulatesFaults(Protocol):
-    """A scenario whose firmware simulates sensor faults itself (ArduPilot's SITL)."""
+    """A scenario (a Simulator, not started) that takes sensor faults."""
 
     def inject_faults(self, sensor: str, models: Sequence[Model], *, name: str | None) -> Any:
-        """Map ``models`` onto the firmware's own faults of ``sensor``; the component added."""
+        """Put ``models`` on ``sensor``; the component added for it."""
         ...
 
 
-@overload
 def inject(
-    simulator: SimulatesFaults, sensor: str, models: Sequence[Model], *, name: str | None = None
-) -> Any: ...
-@overload
-def inject(
-    simulator: Any, sensor: str, models: Sequence[Model], *, name: str | None = None
-) -> InjectorComponent: ...
-def inject(
-    simulator: Any,
+    simulator: object,
     sensor: str,
     models: Sequence[Model],
     *,
@@ -66,73 +43,33 @@ def inject(
 ) -> Any:
     """Put an injector with ``models`` on ``sensor`` of the scenario ``simulator``.
 
-    Returns the component that was added (its ``config`` says which topics it joins). Raises
-    ConfigurationError for an unknown sensor, a model that does not fit the sensor's
-    message, or a sensor that already has an injector. A scenario whose firmware simulates
-    its sensors' faults itself (ArduPilot) gets the models mapped onto those instead.
+    Returns the component that was added (an injector's ``config`` says which topics it
+    joins). Raises ConfigurationError for a simulator that takes no faults, an unknown
+    sensor, a model that does not fit the sensor's message, or a sensor that already has an
+    injector. A scenario whose firmware simulates its sensors' faults itself (ArduPilot)
+    gets the models mapped onto those instead.
     """
-    inner: Any = simulator
-    faults = getattr(inner, "inject_faults", None)
-    if callable(faults):
-        return faults(sensor, models, name=name)
-    vehicle = vehicle_of(simulator)
-    sensor = canonical(vehicle, sensor)
-    name = name or f"{sensor}-injector"
-    if vehicle == "rover":
-        from ..rover import SENSOR_TOPICS
+    if not isinstance(simulator, SimulatesFaults):
+        raise ConfigurationError(
+            "simulator",
+            simulator,
+            "a scenario that takes faults (multicosim.rover.Rover, multicosim.px4.PX4, "
+            "multicosim.ardupilot.Copter or Rover, or one with inject_faults), not started",
+        )
+    return simulator.inject_faults(sensor, models, name=name)
 
-        target = SENSOR_TOPICS[sensor]
-        source = f"{target}/raw"
-        if inner.config.world.sensor_topics.get(sensor, target) != target:
-            raise ConfigurationError(
-                "sensor", sensor, "a sensor without an injector (combine models in one)"
-            )
-        config = InjectorConfig(
-            vehicle="rover",
-            sensor=sensor,
-            source=source,
-            target=target,
-            period=inner.config.world.period,
-            models=tuple(models),
-        )
-        in_process = inner.fidelity == "low"
-    else:
-        from ..px4._config import world_topics
-        from ..px4._simulator import LOW_PERIOD
 
-        source = getattr(world_topics(inner.world), sensor)
-        target = f"{source}/attacked"
-        if getattr(inner.autopilot_topics, sensor) != source:
-            raise ConfigurationError(
-                "sensor", sensor, "a sensor without an injector (combine models in one)"
-            )
-        # Where the world runs: in this process at low fidelity, and as real PX4's simulator.
-        in_process = inner.backend == "process" and (
-            inner.fidelity == "low" or inner.firmware is not None
-        )
-        config = InjectorConfig(
-            vehicle="px4",
-            sensor=sensor,
-            source=source,
-            target=target,
-            period=LOW_PERIOD if inner.fidelity == "low" else inner.world.period,
-            models=tuple(models),
-            # The world's wire: what the scenario's world and autopilot exchange (Structs at
-            # low fidelity, on either backend; MAVLink frames between processes above).
-            wire=inner.wire,
-        )
+def add_injector(
+    simulator: Any, config: InjectorConfig, *, name: str, in_process: bool, backend: str
+) -> InjectorComponent:
+    """Add an injector for ``config`` to ``simulator``: in its process, as a local process,
+    or as a container on the docker backend. The scenario moves its topics afterwards, so a
+    failure here leaves it unchanged."""
     component = InjectorComponent(config, name=name, process=not in_process)
-    # Validate everything before the simulator changes: move the topic last.
-    added = component.container() if inner.backend == "docker" else component
+    added = component.container() if backend == "docker" else component
     try:
-        inner.add(added)
+        simulator.add(added)
     except MulticosimError as exc:
         exc.add_note("add injectors before start(): use the *_simulator fixture, not *_simulation")
         raise
-    # The rover's world publishes the sensor on the injector's source; PX4's autopilot reads
-    # it from the injector's target.
-    if vehicle == "rover":
-        inner.publish_sensor_on(sensor, source)
-    else:
-        inner.read_sensor_from(sensor, target)
     return component

@@ -19,10 +19,10 @@ from collections.abc import Sequence
 
 from hypothesis import strategies as st
 
-from .._errors import ConfigurationError
-from ..strategies import Range, check_range
-from ._models import Bias, Delay, Drift, Dropout, Gaussian, Jump, Model
-from ._sensors import sensor
+from ..core.errors import ConfigurationError
+from ..search.strategies import Range, check_range
+from .models import Bias, Delay, Drift, Dropout, Gaussian, Jump, Model
+from .sensors import sensor
 
 __all__ = [
     "attacks",

@@ -7,7 +7,9 @@ an image (which import ``multicosim.docker._selftest``, for example) do not need
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from ..core.deps import lazy_exports
 
 _LAZY = {
     "AttachedComponent": "._components",
@@ -18,24 +20,22 @@ _LAZY = {
     "ContainerLimits": "._components",
     "ContainerNode": "._components",
     "ContainerFirmwareComponent": "._components",
-    "FirmwareComponent": "._components",  # the paper's name
+    "FirmwareComponent": "._components:ContainerFirmwareComponent",  # the paper's name
     "ContainerSimulation": "._simulator",
     "ContainerSimulator": "._simulator",
-    "EngineUnavailableError": ".._errors",
-    "ImageMissingError": ".._errors",
+    "EngineUnavailableError": "..core.errors",
+    "ImageMissingError": "..core.errors",
     "BASE_IMAGE": "._images",
     "RUNTIME_IMAGE": "._images",
     "PX4_IMAGE": "._images",
     "ARDUPILOT_IMAGE": "._images",
     "build_px4": "._images",
     "build_ardupilot": "._images",
-    "build_images": "._images",
+    "build_images": "._images:build",
     "SweepReport": "._sweep",
     "engine_available": "._sweep",
     "sweep": "._sweep",
 }
-_RENAMED = {"build_images": "build", "FirmwareComponent": "ContainerFirmwareComponent"}
-
 __all__ = [
     "ARDUPILOT_IMAGE",
     "BASE_IMAGE",
@@ -63,8 +63,8 @@ __all__ = [
 ]
 
 if TYPE_CHECKING:
-    from .._errors import EngineUnavailableError as EngineUnavailableError
-    from .._errors import ImageMissingError as ImageMissingError
+    from ..core.errors import EngineUnavailableError as EngineUnavailableError
+    from ..core.errors import ImageMissingError as ImageMissingError
     from ._components import AttachedComponent as AttachedComponent
     from ._components import AttachedNode as AttachedNode
     from ._components import ContainerComponent as ContainerComponent
@@ -88,16 +88,4 @@ if TYPE_CHECKING:
     from ._sweep import sweep as sweep
 
 
-def __getattr__(name: str) -> Any:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'multicosim.docker' has no attribute {name!r}")
-    import importlib
-
-    value = getattr(importlib.import_module(module, __name__), _RENAMED.get(name, name))
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(__all__)
+__getattr__, __dir__ = lazy_exports(__name__, _LAZY, __all__)

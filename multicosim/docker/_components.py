@@ -22,28 +22,28 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, Generic, Literal, Protocol, TypeVar
 
-from .. import _wire as wire
-from .._clock import Scheduler
-from .._environment import LocalEnvironment
-from .._errors import (
+from ..core import wire
+from ..core.clock import Scheduler
+from ..core.errors import (
     ConfigurationError,
     NodeCrashedError,
     NodeStartError,
     NodeTimeoutError,
     translate,
 )
-from .._firmware import ProcessFirmwareNode, check_types
-from .._interfaces import Node
-from .._messages import MsgT, ReplyT
-from .._processes import split_command
-from .._rundirs import start_time
-from .._waits import (
+from ..core.interfaces import Node
+from ..core.messages import MsgT, ReplyT
+from ..local.environment import LocalEnvironment
+from ..local.firmware import ProcessFirmwareNode, check_types
+from ..local.processes import split_command
+from ..local.rundirs import start_time
+from ..local.waits import (
     DEFAULT_SEND_TIMEOUT,
     DEFAULT_START_TIMEOUT,
     DEFAULT_STEP_TIMEOUT,
     check_timeout,
 )
-from ._engine import LABEL_COMPONENT, APIError, NotFound, labels, require_image
+from .engine import LABEL_COMPONENT, APIError, NotFound, labels, require_image
 
 __all__ = [
     "AttachedComponent",
@@ -656,7 +656,7 @@ class AttachedNode(Generic[HostT]):
         if self._stopped:
             return
         self._stopped = True
-        from .._simulation import stop_all
+        from ..local.simulation import stop_all
 
         steps = [(f"container {n.name!r}", n.stop) for n in reversed(self.attached)]
         stop_all([*steps, (f"host {self.name!r}", self.host.stop)], f"attached {self.name!r}")

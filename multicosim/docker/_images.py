@@ -22,9 +22,9 @@ from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
-from .. import __version__
-from .._errors import MulticosimError
-from ._engine import ImageNotFound, client
+from ..core.errors import MulticosimError
+from ..core.version import __version__
+from .engine import ImageNotFound, client
 
 __all__ = [
     "ARDUPILOT_IMAGE",

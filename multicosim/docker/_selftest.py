@@ -14,7 +14,8 @@ import os
 import socket
 import sys
 
-import multicosim as mcs
+from ..core.messages import Message
+from ..runtime import FirmwareContext, StepContext, firmware
 
 __all__ = [
     "Cmd",
@@ -33,14 +34,14 @@ __all__ = [
 RELAY_PORT = 7001
 
 
-class Echo(mcs.Message):
+class Echo(Message):
     """A message to echo; ``exit_code`` >= 0 makes the echo firmware exit with it instead."""
 
     text: str
     exit_code: int = -1
 
 
-class EchoReply(mcs.Message):
+class EchoReply(Message):
     """The echo: the text, who answered and the seed it was given."""
 
     text: str
@@ -49,8 +50,8 @@ class EchoReply(mcs.Message):
     seed: int
 
 
-@mcs.firmware(msgtype=Echo, period=0.01)
-def echo(msg: Echo, ctx: mcs.FirmwareContext) -> EchoReply:
+@firmware(msgtype=Echo, period=0.01)
+def echo(msg: Echo, ctx: FirmwareContext) -> EchoReply:
     """Answer at once; exit the process if asked to (to test crash reporting)."""
     if msg.exit_code >= 0:
         print(f"echo: exiting with {msg.exit_code} as asked", flush=True)
@@ -58,27 +59,27 @@ def echo(msg: Echo, ctx: mcs.FirmwareContext) -> EchoReply:
     return EchoReply(msg.text, socket.gethostname(), ctx.name, ctx.seed)
 
 
-class Mission(mcs.Message):
+class Mission(Message):
     """Drive at ``speed`` for ``steps`` controller periods."""
 
     speed: float
     steps: int = 10
 
 
-class Trajectory(mcs.Message):
+class Trajectory(Message):
     """Controller step times and the cart position seen at each."""
 
     times: list[float]
     xs: list[float]
 
 
-class Cmd(mcs.Message):
+class Cmd(Message):
     """Velocity command."""
 
     speed: float
 
 
-class State(mcs.Message):
+class State(Message):
     """Cart position."""
 
     x: float
@@ -89,13 +90,13 @@ class World:
 
     period = 0.01
 
-    def setup(self, ctx: mcs.StepContext) -> None:
+    def setup(self, ctx: StepContext) -> None:
         """Subscribe to commands."""
         self.x = 0.0
         self.v = 0.0
         self.cmd = ctx.subscribe("cmd", Cmd)
 
-    def step(self, ctx: mcs.StepContext) -> None:
+    def step(self, ctx: StepContext) -> None:
         """Integrate and publish the position."""
         if self.cmd.latest is not None:
             self.v = self.cmd.latest.speed
@@ -103,8 +104,8 @@ class World:
         ctx.publish("state", State(x=self.x))
 
 
-@mcs.firmware(msgtype=Mission, period=0.05)
-def controller(mission: Mission, ctx: mcs.FirmwareContext) -> Trajectory:
+@firmware(msgtype=Mission, period=0.05)
+def controller(mission: Mission, ctx: FirmwareContext) -> Trajectory:
     """Command ``mission.speed`` every period and record what the world reports."""
     state = ctx.subscribe("state", State)
     times: list[float] = []
@@ -117,8 +118,8 @@ def controller(mission: Mission, ctx: mcs.FirmwareContext) -> Trajectory:
     return Trajectory(times, xs)
 
 
-@mcs.firmware(msgtype=Echo, period=0.01)
-def relay(msg: Echo, ctx: mcs.FirmwareContext) -> EchoReply:
+@firmware(msgtype=Echo, period=0.01)
+def relay(msg: Echo, ctx: FirmwareContext) -> EchoReply:
     """Forward the text to the localhost server and return its answer."""
     import zmq
 

@@ -6,13 +6,13 @@ import contextlib
 import logging
 from typing import Any, TypeVar
 
-from .._clock import Scheduler
-from .._errors import MulticosimError
-from .._interfaces import Node
-from .._rundirs import remove_tree
-from .._simulators import LocalSimulatorBase, ProcessSimulation, required_images
+from ..core.clock import Scheduler
+from ..core.errors import MulticosimError
+from ..core.interfaces import Node
+from ..local.rundirs import remove_tree
+from ..local.simulators import LocalSimulatorBase, ProcessSimulation, required_images
 from ._components import ContainerEnvironment, ContainerNode
-from ._engine import LABEL_RUN, APIError, NotFound, client, labels, require_image
+from .engine import LABEL_RUN, APIError, NotFound, client, labels, require_image
 
 __all__ = ["ContainerSimulation", "ContainerSimulator"]
 

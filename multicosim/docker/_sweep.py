@@ -36,7 +36,7 @@ class SweepReport:
 def engine_available() -> str | None:
     """None if a Docker engine answers, else the reason it does not (SDK or engine)."""
     try:
-        from ._engine import engine_available as check
+        from .engine import engine_available as check
     except ImportError as exc:
         return str(exc)
     return check()
@@ -57,7 +57,7 @@ def sweep(
     if reason is not None:
         return SweepReport(skipped=reason)
     from ._components import _remove_container
-    from ._engine import (
+    from .engine import (
         LABEL_OWNER,
         LABEL_RUN,
         LABEL_SESSION,

@@ -15,7 +15,7 @@
     # Real PX4 SITL (a px4_sitl_default build) flying the same world, in lockstep:
     px4.PX4(world, fidelity="medium", firmware=px4.SITL(binary="build/px4_sitl_default/bin/px4"))
 
-    # Real PX4 as the top level of a falsifying search (see multicosim.falsify):
+    # Real PX4 as the top level of a falsifying search (see multicosim.search.falsify):
     levels = ("low", "medium", px4.sitl_level(simulate, px4.SITL(binary=...)))
 
 ``import multicosim.px4`` loads neither MuJoCo nor pymavlink; they load when a simulation
@@ -24,9 +24,10 @@ starts.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
-from ._config import (
+from ..core.deps import lazy_exports
+from ..mavlink.mission import (
     Configuration,
     FlightSample,
     Geofence,
@@ -41,19 +42,19 @@ from ._config import (
 Gazebo = MuJoCo  # the paper's name for the world configuration
 
 _LAZY = {
-    "BACKENDS": "._simulator",
-    "Backend": "._simulator",
-    "Fidelity": "._simulator",
-    "FIDELITIES": "._simulator",
-    "HIGH_FIDELITY_WORLD": "._simulator",
-    "PX4": "._simulator",
-    "PX4Component": "._simulator",
-    "PX4Node": "._simulator",
-    "PX4Simulation": "._simulator",
-    "SITL": "._real",
-    "SITL_LEVEL": "._levels",
-    "sitl_level": "._levels",
-    "WorldComponent": "._simulator",
+    "BACKENDS": "..core.fidelity",
+    "Backend": "..core.fidelity",
+    "Fidelity": "..core.fidelity",
+    "FIDELITIES": "..core.fidelity",
+    "HIGH_FIDELITY_WORLD": ".scenario",
+    "PX4": ".scenario",
+    "PX4Component": ".scenario",
+    "PX4Node": ".scenario",
+    "PX4Simulation": ".scenario",
+    "SITL": ".sitl",
+    "SITL_LEVEL": ".levels",
+    "sitl_level": ".levels",
+    "WorldComponent": ".scenario",
 }
 
 __all__ = [
@@ -83,40 +84,17 @@ __all__ = [
 ]
 
 if TYPE_CHECKING:
-    from ._levels import SITL_LEVEL, sitl_level
-    from ._real import SITL
-    from ._simulator import (
-        BACKENDS,
-        FIDELITIES,
+    from ..core.fidelity import BACKENDS, FIDELITIES, Backend, Fidelity
+    from .levels import SITL_LEVEL, sitl_level
+    from .scenario import (
         HIGH_FIDELITY_WORLD,
         PX4,
-        Backend,
-        Fidelity,
         PX4Component,
         PX4Node,
         PX4Simulation,
         WorldComponent,
     )
+    from .sitl import SITL
 
 
-# Former names, kept as deprecated aliases: old name -> new name.
-_DEPRECATED = {"Sample": "FlightSample"}
-
-
-def __getattr__(name: str) -> Any:
-    if name in _DEPRECATED:
-        from .._deps import renamed
-
-        return globals()[renamed(__name__, name, _DEPRECATED)]
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'multicosim.px4' has no attribute {name!r}")
-    import importlib
-
-    value = getattr(importlib.import_module(module, __name__), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(__all__)
+__getattr__, __dir__ = lazy_exports(__name__, _LAZY, __all__)

@@ -24,7 +24,7 @@ from collections import Counter
 from importlib import resources
 from typing import Any
 
-from ._mav import (
+from ..mavlink.dialect import (
     CMD_DO_JUMP,
     CMD_FENCE_POLYGON_INCLUSION,
     CMD_RALLY_POINT,
@@ -56,7 +56,7 @@ MSG_UNKNOWN = 9999  # a message id no dialect has
 
 def _command_id(name: str) -> int:
     """MAV_CMD_``name``'s number (``NAV_TAKEOFF``, ``COMPONENT_ARM_DISARM``, ...)."""
-    from ._mav import dialect
+    from ..mavlink.dialect import dialect
 
     return int(getattr(dialect(), f"MAV_CMD_{name}"))
 
@@ -67,7 +67,7 @@ class _Link:
     def __init__(self, port: int, timeout: float, peer: int | None = None) -> None:
         from pymavlink import mavutil
 
-        from ._mav import dialect
+        from ..mavlink.dialect import dialect
 
         # pymavlink shares the port (SO_REUSEADDR): another listener there would take some
         # of the autopilot's datagrams. Refuse a port that is taken.
@@ -303,7 +303,7 @@ def _commands(link: _Link) -> dict[str, Any]:
 
 def _modes(link: _Link) -> dict[str, Any]:
     """DO_SET_MODE to each PX4 mode while disarmed: the result and the mode then reported."""
-    from ._mav import decode_custom_mode
+    from ..mavlink.dialect import decode_custom_mode
 
     out: dict[str, Any] = {}
     # Every mode PX4 v1.15 has, in the order of its numbers.
@@ -469,7 +469,7 @@ def differences(expected: dict[str, Any], actual: dict[str, Any]) -> list[str]:
         want, got = expected["heartbeat"][key], actual["heartbeat"][key]
         if want != got:
             out.append(f"heartbeat {key}: {got}, PX4 {want}")
-    from ._mav import dialect
+    from ..mavlink.dialect import dialect
 
     common = {cls.msgname for cls in dialect().mavlink_map.values()}
     for name, rate in expected["streams"].items():

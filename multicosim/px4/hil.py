@@ -13,7 +13,7 @@ frames (:class:`MavlinkPacket`, between processes at medium fidelity); :func:`re
 
 from __future__ import annotations
 
-from ._hil import (
+from ..mavlink.hil import (
     ACTUATOR_FLAG_VELOCITY,
     BARO_FIELDS,
     IMU_FIELDS,

@@ -2,7 +2,7 @@
 
 Everything generated is valid by construction (inside the geofence around home, sensible
 physics options), so a property test spends its examples on behaviour, not on input
-validation. Ranges are ``(low, high)`` tuples, as in :mod:`multicosim.strategies`::
+validation. Ranges are ``(low, high)`` tuples, as in :mod:`multicosim.search.strategies`::
 
     from hypothesis import given
     from multicosim.px4 import strategies as px4st
@@ -15,14 +15,14 @@ from __future__ import annotations
 
 import math
 
-from .._deps import require
-from ..geo import LocalProjection
-from ._config import Configuration, Geofence, Home, MissionEnd, MuJoCo, Waypoint
+from ..core.deps import require
+from ..core.geo import LocalProjection
+from ..mavlink.mission import Configuration, Geofence, Home, MissionEnd, MuJoCo, Waypoint
 
 require("hypothesis", "hypothesis")
 from hypothesis import strategies as st  # noqa: E402 - after the dependency check, which names the extra
 
-from ..strategies import Range, check_range  # noqa: E402
+from ..search.strategies import Range, check_range  # noqa: E402
 
 __all__ = ["missions", "waypoints", "worlds"]
 

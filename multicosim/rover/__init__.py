@@ -15,6 +15,9 @@ Importing this package does not import MuJoCo (the low-fidelity world is kinemat
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
+from ..core.deps import lazy_exports
 from ._automaton import TERMINAL, Automaton, Observation, State
 from ._controller import controller
 from ._kinematic import KinematicWorld, kinematic_world
@@ -53,6 +56,7 @@ from ._scenario import (
 )
 from ._vehicle import (
     ACCELERATION,
+    AXLE_HEIGHT,
     TRACK,
     WHEEL_RADIUS,
     WHEELBASE,
@@ -66,6 +70,7 @@ from ._vehicle import (
 __all__ = [
     "ABORT_TOPIC",
     "ACCELERATION",
+    "AXLE_HEIGHT",
     "BACKENDS",
     "COMMAND_TOPIC",
     "CONTROLLER_COMMAND",
@@ -92,6 +97,7 @@ __all__ = [
     "Position",
     "Rover",
     "RoverSimulation",
+    "RoverVehicle",
     "RoverWorldConfig",
     "SensedSample",
     "SensorNoise",
@@ -106,7 +112,16 @@ __all__ = [
     "heading_from_field",
     "kinematic_world",
     "planned_endpoint",
+    "rover_world",
     "world_command",
     "world_component",
     "yaw_from_quaternion",
 ]
+
+# The MuJoCo body imports mujoco: it loads on first use.
+_LAZY = {"RoverVehicle": ".body", "rover_world": ".body"}
+
+if TYPE_CHECKING:
+    from .body import RoverVehicle, rover_world
+
+__getattr__, __dir__ = lazy_exports(__name__, _LAZY, __all__)

@@ -6,8 +6,9 @@
 
 from __future__ import annotations
 
-from .._errors import MulticosimError
-from .._runtime import FirmwareContext, firmware
+from ..core.errors import MulticosimError
+from ..runtime.context import FirmwareContext
+from ..runtime.serve import firmware
 from ._automaton import Automaton, Observation
 from ._messages import (
     ABORT_TOPIC,

@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
-from ..geo import GRAVITY, local_to_geodetic, quaternion_from_euler
+from ..core.geo import GRAVITY, local_to_geodetic, quaternion_from_euler
 from ._messages import (
     COMMAND_TOPIC,
     MAX_STEERING,
@@ -33,7 +33,7 @@ from ._vehicle import (
 )
 
 if TYPE_CHECKING:
-    from .._runtime import StepContext, Subscription
+    from ..runtime.context import StepContext, Subscription
 
 __all__ = ["KinematicWorld", "kinematic_world"]
 

@@ -11,8 +11,8 @@ from __future__ import annotations
 import math
 from collections.abc import Iterator
 
-from .._errors import ConfigurationError
-from .._messages import Message
+from ..core.errors import ConfigurationError
+from ..core.messages import Message
 
 __all__ = [
     "ABORT_TOPIC",

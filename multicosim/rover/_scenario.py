@@ -32,10 +32,10 @@ import dataclasses
 import math
 from typing import TYPE_CHECKING, Any, Literal, TypeVar, cast, overload
 
-from .._errors import ConfigurationError
-from .._fidelity import BACKENDS, FIDELITIES, Backend, Fidelity, check_fidelity
-from .._interfaces import CommunicationNode, Component, Node, NodeId
-from .._local import (
+from ..core.errors import ConfigurationError
+from ..core.fidelity import BACKENDS, FIDELITIES, Backend, Fidelity, check_fidelity
+from ..core.interfaces import CommunicationNode, Component, Node, NodeId
+from ..local import (
     InProcessComponent,
     InProcessFirmwareComponent,
     LocalEnvironment,
@@ -47,13 +47,16 @@ from .._local import (
     participant_command,
     required_images,
 )
-from ..mujoco._config import WorldConfig
+from ..physics.config import WorldConfig
 from ._controller import controller
 from ._kinematic import KinematicWorld
-from ._messages import Mission, Trajectory
+from ._messages import SENSOR_TOPICS, Mission, Trajectory
 from ._vehicle import WHEELBASE, RoverWorldConfig, SensorNoise
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    from ..attacks import InjectorComponent, Model
     from ..docker import ContainerEnvironment, ContainerSimulator
     from ..trace import TraceOptions
 
@@ -120,7 +123,9 @@ def world_command(
     """
     config = config or _default_config(fidelity)
     factory = (
-        "multicosim.rover:kinematic_world" if fidelity == "low" else "multicosim.mujoco:rover_world"
+        "multicosim.rover:kinematic_world"
+        if fidelity == "low"
+        else "multicosim.rover.body:rover_world"
     )
     return participant_command(factory, config)
 
@@ -282,7 +287,7 @@ class Rover:
         check_fidelity(fidelity)
         _check_backend(backend)
         if world is not None and not isinstance(world, WorldConfig):
-            raise ConfigurationError("world", world, "a multicosim.mujoco.WorldConfig or None")
+            raise ConfigurationError("world", world, "a multicosim.physics.WorldConfig or None")
         if noise is not None and not isinstance(noise, SensorNoise):
             raise ConfigurationError("noise", noise, "a SensorNoise or None")
         self.fidelity: Fidelity = fidelity
@@ -318,6 +323,41 @@ class Rover:
                 "a component of the process backend (containers need backend='docker')",
             )
         return self._add(component)
+
+    def inject_faults(
+        self, sensor: str, models: Sequence[Model], *, name: str | None = None
+    ) -> InjectorComponent:
+        """Put an injector with ``models`` on ``sensor`` (see :func:`multicosim.attacks.inject`).
+
+        The world publishes the sensor on ``<topic>/raw`` and the injector republishes it on
+        the topic the controller reads.
+        """
+        from ..attacks import InjectorConfig, add_injector, canonical
+        from . import injectable  # noqa: F401 - registers the rover's sensors
+
+        sensor = canonical("rover", sensor)
+        target = SENSOR_TOPICS[sensor]
+        if self.config.world.sensor_topics.get(sensor, target) != target:
+            raise ConfigurationError(
+                "sensor", sensor, "a sensor without an injector (combine models in one)"
+            )
+        config = InjectorConfig(
+            vehicle="rover",
+            sensor=sensor,
+            source=f"{target}/raw",
+            target=target,
+            period=self.config.world.period,
+            models=tuple(models),
+        )
+        component = add_injector(
+            self,
+            config,
+            name=name or f"{sensor}-injector",
+            in_process=self.fidelity == "low",
+            backend=self.backend,
+        )
+        self.publish_sensor_on(sensor, config.source)
+        return component
 
     def publish_sensor_on(self, sensor: str, topic: str) -> None:
         """Have the world publish ``sensor`` on ``topic`` instead (before start).

@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from typing import Any
 
-from ..mujoco._config import WorldConfig
+from ..physics.config import WorldConfig
 from ..trace import (
     LOCATION_CHANNEL,
     POSE_CHANNEL,

@@ -9,8 +9,8 @@ from __future__ import annotations
 import dataclasses
 import math
 
-from .._errors import ConfigurationError
-from ..mujoco._config import WorldConfig, check_sensor_topics
+from ..core.errors import ConfigurationError
+from ..physics.config import WorldConfig, check_sensor_topics
 from ._messages import SENSOR_TOPICS
 
 __all__ = [

@@ -8,7 +8,7 @@
     @given(missions(speed=(0.5, 4.0)))
     def test_mission(rover_simulation, mission): ...
 
-Ranges are ``(low, high)`` tuples, as in :mod:`multicosim.strategies`, checked when the
+Ranges are ``(low, high)`` tuples, as in :mod:`multicosim.search.strategies`, checked when the
 strategy is built (ConfigurationError names the argument). Every value a strategy draws is
 valid (it passes the types' own validation), the bounds keep missions short enough for a
 test suite, and each strategy shrinks towards the simple case: slow, no wait, no noise.
@@ -19,15 +19,15 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from .._deps import require
-from ..mujoco._config import INTEGRATORS, SOLVERS, WorldConfig
+from ..core.deps import require
+from ..physics.config import INTEGRATORS, SOLVERS, WorldConfig
 from ._messages import MAX_SPEED, MAX_STEERING, SENSOR_TOPICS, Mission
 from ._vehicle import SensorNoise
 
 require("hypothesis", "hypothesis")
 from hypothesis import strategies as st  # noqa: E402 - after the dependency check, which names the extra
 
-from ..strategies import Range, check_range, simple_first  # noqa: E402
+from ..search.strategies import Range, check_range, simple_first  # noqa: E402
 
 __all__ = ["missions", "sensor_noise", "world_configs"]
 

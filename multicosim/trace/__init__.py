@@ -30,12 +30,15 @@ TestTrace), ``_hypothesis`` (Hypothesis's failing example), ``_plot``, ``_cli``.
 
 from __future__ import annotations
 
-from .. import requirements as _requirements
+from ..core.clock import find_scheduler
 from ._cli import plot_command
 from ._convert import (
     LOCATION_CHANNEL,
     PATH_CHANNEL,
+    PLAN_CHANNEL,
     POSE_CHANNEL,
+    ROBUSTNESS_CHANNEL,
+    TRAJECTORY_CHANNEL,
     Converted,
     Converter,
     TraceOptions,
@@ -48,22 +51,9 @@ from ._convert import (
 )
 from ._hypothesis import falsifying_example
 from ._layout import layout, message_path
-from ._mcap import (
-    METADATA_NAME,
-    ChannelInfo,
-    TraceData,
-    TraceMessage,
-    package_versions,
-    read_trace,
-)
+from ._mcap import METADATA_NAME, ChannelInfo, TraceData, TraceMessage, package_versions, read_trace
 from ._plot import plot_trace
-from ._recorder import (
-    PLAN_CHANNEL,
-    ROBUSTNESS_CHANNEL,
-    TRAJECTORY_CHANNEL,
-    Recorder,
-    find_scheduler,
-)
+from ._recorder import Recorder
 from ._schemas import (
     DIALECT,
     GEOJSON,
@@ -78,7 +68,7 @@ from ._schemas import (
     schema_for,
     stamp,
 )
-from ._session import TestTrace, _note_evaluation, activate, active
+from ._session import TestTrace, activate, active, note_evaluation
 from ._tlog import write_tlog
 
 __all__ = [
@@ -115,6 +105,7 @@ __all__ = [
     "local_path",
     "location_fix",
     "message_path",
+    "note_evaluation",
     "object_schema",
     "package_versions",
     "plot_command",
@@ -127,6 +118,3 @@ __all__ = [
     "trace_options",
     "write_tlog",
 ]
-
-# Every requirement evaluated while a test records is noted in that test's trace.
-_requirements.add_observer(_note_evaluation)

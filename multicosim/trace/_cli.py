@@ -5,7 +5,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from .._errors import ConfigurationError, DependencyMissingError, TraceError
+from ..core.errors import ConfigurationError, DependencyMissingError, TraceError
 
 __all__ = ["plot_command"]
 

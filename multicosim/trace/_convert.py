@@ -12,7 +12,7 @@ import dataclasses
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import Any, Protocol
 
-from .._errors import ConfigurationError
+from ..core.errors import ConfigurationError
 from ._schemas import LOCATION_FIX, PATH_POINT, POSE_IN_FRAME, Schema, stamp
 
 __all__ = [
@@ -31,6 +31,9 @@ __all__ = [
 LOCATION_CHANNEL = "mcs/location"
 POSE_CHANNEL = "mcs/pose"
 PATH_CHANNEL = "mcs/path"  # mcs/path/<label>: local east/north/up points, for plots
+TRAJECTORY_CHANNEL = "mcs/trajectory"
+PLAN_CHANNEL = "mcs/plan"
+ROBUSTNESS_CHANNEL = "mcs/robustness"
 
 
 @dataclasses.dataclass(frozen=True)

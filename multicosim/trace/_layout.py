@@ -12,7 +12,7 @@ import re
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from ._recorder import ROBUSTNESS_CHANNEL, TRAJECTORY_CHANNEL
+from ._convert import ROBUSTNESS_CHANNEL, TRAJECTORY_CHANNEL
 
 __all__ = ["layout", "message_path"]
 

@@ -12,8 +12,8 @@ from typing import Any
 
 import msgspec
 
-from .._deps import require
-from .._errors import TraceError
+from ..core.deps import require
+from ..core.errors import TraceError
 from ._schemas import Schema
 
 __all__ = [

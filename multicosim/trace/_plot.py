@@ -13,11 +13,10 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from .._deps import require
-from .._errors import TraceError
-from ._convert import PATH_CHANNEL
+from ..core.deps import require
+from ..core.errors import TraceError
+from ._convert import PATH_CHANNEL, PLAN_CHANNEL, ROBUSTNESS_CHANNEL, TRAJECTORY_CHANNEL
 from ._mcap import METADATA_NAME, TraceData, TraceMessage, read_trace
-from ._recorder import PLAN_CHANNEL, ROBUSTNESS_CHANNEL, TRAJECTORY_CHANNEL
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes

@@ -8,12 +8,20 @@ import json
 import math
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import msgspec
 
-from .._errors import ConfigurationError, TraceError
-from ._convert import Converter, TraceOptions, trace_options
+from ..core.clock import find_scheduler
+from ..core.errors import ConfigurationError, TraceError
+from ._convert import (
+    PLAN_CHANNEL,
+    ROBUSTNESS_CHANNEL,
+    TRAJECTORY_CHANNEL,
+    Converter,
+    TraceOptions,
+    trace_options,
+)
 from ._mcap import Row, write_mcap
 from ._schemas import (
     ANY_OBJECT,
@@ -28,40 +36,33 @@ from ._schemas import (
 from ._tlog import write_tlog
 
 if TYPE_CHECKING:
-    from .._clock import Delivery, Scheduler
-    from ..requirements import Evaluation, Signals
+    from ..core.clock import Delivery, Scheduler
+    from ..core.signals import Signals
 
-__all__ = ["PLAN_CHANNEL", "ROBUSTNESS_CHANNEL", "TRAJECTORY_CHANNEL", "Recorder", "find_scheduler"]
-
-TRAJECTORY_CHANNEL = "mcs/trajectory"
-PLAN_CHANNEL = "mcs/plan"
-ROBUSTNESS_CHANNEL = "mcs/robustness"
+__all__ = ["PLAN_CHANNEL", "ROBUSTNESS_CHANNEL", "TRAJECTORY_CHANNEL", "Recorder"]
 
 
-def find_scheduler(simulation: object) -> Scheduler:
-    """The scheduler of ``simulation`` (a local or container simulation, or a wrapper of one)."""
-    from .._clock import Scheduler
+class Evaluated(Protocol):
+    """What a trace keeps of a requirement's evaluation
+    (:class:`multicosim.search.requirements.Evaluation` is one)."""
 
-    seen: set[int] = set()
-    node: object = simulation
-    while id(node) not in seen:
-        seen.add(id(node))
-        if isinstance(node, Scheduler):
-            return node
-        environment = getattr(node, "environment", None)
-        scheduler = getattr(environment, "scheduler", None) or getattr(node, "scheduler", None)
-        if isinstance(scheduler, Scheduler):
-            return scheduler
-        inner = getattr(node, "simulation", None)  # scenario wrappers (RoverSimulation, ...)
-        if inner is None:
-            break
-        node = inner
-    raise ConfigurationError(
-        "simulation",
-        simulation,
-        "a simulation with a simulated clock (ProcessSimulation, ContainerSimulation, "
-        "or an object whose .simulation is one)",
-    )
+    @property
+    def formula(self) -> str: ...
+    @property
+    def robustness(self) -> float: ...
+    @property
+    def worst_time(self) -> float: ...
+    @property
+    def values(self) -> Mapping[str, float]: ...
+    @property
+    def predicate(self) -> str: ...
+    @property
+    def series(self) -> tuple[tuple[float, float], ...]: ...
+    @property
+    def first_violation(self) -> float | None: ...
+    def explain(self) -> str:
+        """A one-paragraph account of the verdict."""
+        ...
 
 
 @dataclasses.dataclass
@@ -156,7 +157,7 @@ class Recorder:
         channel: str = TRAJECTORY_CHANNEL,
     ) -> None:
         """Record a trajectory (a firmware's reply) as one message per sample, at its time."""
-        from ..requirements import signals_of
+        from ..core.signals import signals_of
 
         self.add_signals(signals_of(trajectory, times=times), channel)
 
@@ -183,7 +184,7 @@ class Recorder:
 
     def add_evaluation(
         self,
-        evaluation: Evaluation,
+        evaluation: Evaluated,
         series: Sequence[tuple[float, float]] = (),
         *,
         channel: str = ROBUSTNESS_CHANNEL,

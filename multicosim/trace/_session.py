@@ -10,11 +10,12 @@ from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ._convert import Converter
-from ._recorder import TRAJECTORY_CHANNEL, Recorder
+from ._convert import TRAJECTORY_CHANNEL, Converter
+from ._recorder import Recorder
 
 if TYPE_CHECKING:
-    from ..requirements import Evaluation, Requirement, Signals
+    from ..core.signals import Signals
+    from ._recorder import Evaluated
 
 __all__ = ["TestTrace", "activate", "active"]
 
@@ -53,7 +54,7 @@ class TestTrace:
         self.converters = list(converters)
         self.recorders: list[Recorder] = []
         self.example = 0
-        self._evaluation: tuple[Evaluation, Signals] | None = None
+        self._evaluation: tuple[Evaluated, Signals] | None = None
         self._lock = threading.Lock()
 
     def attach(
@@ -92,15 +93,13 @@ class TestTrace:
         for recorder in self.recorders:
             recorder.detach()
 
-    def note_evaluation(
-        self, requirement: Requirement, signals: Signals, evaluation: Evaluation
-    ) -> None:
+    def note_evaluation(self, requirement: object, signals: Signals, evaluation: Evaluated) -> None:
         """Keep the latest requirement evaluation (its trajectory and robustness go in)."""
         if self.record:
             self._evaluation = (evaluation, signals)
 
     @property
-    def evaluation(self) -> Evaluation | None:
+    def evaluation(self) -> Evaluated | None:
         """The latest requirement evaluation noted, if any."""
         return self._evaluation[0] if self._evaluation is not None else None
 
@@ -157,7 +156,7 @@ def activate(test_trace: TestTrace) -> Iterator[TestTrace]:
         test_trace.detach()
 
 
-def _note_evaluation(requirement: Requirement, signals: Signals, evaluation: Evaluation) -> None:
+def note_evaluation(requirement: object, signals: Signals, evaluation: Evaluated) -> None:
     """Called by Requirement.evaluate: note it in the active test's trace."""
     current = _current.get()
     if current is not None:

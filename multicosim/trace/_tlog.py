@@ -10,7 +10,7 @@ import struct
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 
-from .._errors import TraceError
+from ..core.errors import TraceError
 
 __all__ = ["split_frames", "write_tlog"]
 

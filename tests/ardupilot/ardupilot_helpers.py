@@ -6,7 +6,7 @@ import sys
 from pathlib import Path
 
 import multicosim.ardupilot as ardupilot
-from multicosim.geo import LocalProjection
+from multicosim.core.geo import LocalProjection
 
 STANDIN = Path(__file__).with_name("standin.py")
 

@@ -53,12 +53,9 @@ def test_import_stays_light() -> None:
     assert out.stdout.strip() == "[]"
 
 
-def test_the_former_name_of_the_firmware_levels_warns() -> None:
-    import pytest
-
+def test_the_firmware_levels_are_a_subset_of_the_ladder() -> None:
     import multicosim as mcs
 
-    with pytest.warns(DeprecationWarning, match="FIRMWARE_FIDELITIES"):
-        levels = ardupilot.FIDELITIES
-    assert levels == ardupilot.FIRMWARE_FIDELITIES == ("medium", "high")
-    assert set(levels) < set(mcs.FIDELITIES)
+    assert ardupilot.FIRMWARE_FIDELITIES == ("medium", "high")
+    assert set(ardupilot.FIRMWARE_FIDELITIES) < set(mcs.FIDELITIES)
+    assert not hasattr(ardupilot, "FIDELITIES")  # its former name, removed with 0.2

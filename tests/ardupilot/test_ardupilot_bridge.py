@@ -25,8 +25,8 @@ from ardupilot_helpers import fake_ardupilot
 import multicosim as mcs
 import multicosim.ardupilot as ardupilot
 from multicosim.ardupilot._bridge import ServoOutputs
-from multicosim.px4._hil import MavlinkPacket, Truth
-from multicosim.px4._mav import new_link
+from multicosim.mavlink.dialect import new_link
+from multicosim.mavlink.hil import MavlinkPacket, Truth
 
 pytestmark = pytest.mark.usefixtures("no_leaks")
 
@@ -256,7 +256,7 @@ def test_stopping_leaves_nothing_behind(tmp_path: Path) -> None:
 
 def test_only_the_firmwares_own_sockets_are_answered() -> None:
     from multicosim.ardupilot._bridge import JsonBridge
-    from multicosim.ardupilot._launch import _owned_by
+    from multicosim.ardupilot.launch import _owned_by
 
     physics = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     physics.bind(("127.0.0.1", 0))

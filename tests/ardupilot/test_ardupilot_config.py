@@ -20,7 +20,6 @@ import multicosim.ardupilot as ardupilot
 import multicosim.attacks as attacks
 import multicosim.px4 as px4
 from multicosim.ardupilot._bridge import MavlinkFramer, json_state
-from multicosim.ardupilot._faults import FaultsConfig, SimulatedFaults
 from multicosim.ardupilot._frames import (
     check_quad_x,
     copter_params,
@@ -28,11 +27,12 @@ from multicosim.ardupilot._frames import (
     rover_command,
     rover_params,
 )
-from multicosim.ardupilot._launch import SIM_PORT, claim_instance, launch_command
-from multicosim.geo import Home, LocalProjection
-from multicosim.px4._airframe import NONE_IRIS, Rotor
-from multicosim.px4._hil import Truth
-from multicosim.px4._mav import new_link
+from multicosim.ardupilot.faults import FaultsConfig, SimulatedFaults
+from multicosim.ardupilot.launch import SIM_PORT, claim_instance, launch_command
+from multicosim.core.geo import Home, LocalProjection
+from multicosim.mavlink.airframe import NONE_IRIS, Rotor
+from multicosim.mavlink.dialect import new_link
+from multicosim.mavlink.hil import Truth
 
 # -- the firmware directory ------------------------------------------------------------------
 

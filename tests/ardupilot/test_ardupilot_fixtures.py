@@ -11,7 +11,6 @@ from pathlib import Path
 import pytest
 from ardupilot_helpers import fake_ardupilot
 
-import multicosim.ardupilot._faults
 import multicosim.ardupilot._simulator
 import multicosim.ardupilot._vehicles  # noqa: F401
 
@@ -21,7 +20,7 @@ import multicosim.ardupilot._vehicles  # noqa: F401
 TEST_FILE = """
 import pytest
 import multicosim.ardupilot as ardupilot
-from multicosim.ardupilot._faults import FaultsComponent
+from multicosim.ardupilot.faults import FaultsComponent
 
 @pytest.mark.fidelity("low", "medium")
 def test_copter(ardupilot_copter_simulation):

@@ -21,8 +21,8 @@ from ardupilot_helpers import wp
 import multicosim as mcs
 import multicosim.ardupilot as ardupilot
 from multicosim.ardupilot._bridge import process_ports
+from multicosim.core.geo import LocalProjection
 from multicosim.docker import ContainerSimulation
-from multicosim.geo import LocalProjection
 
 pytestmark = pytest.mark.usefixtures("no_leaks")
 

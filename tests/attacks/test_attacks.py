@@ -15,7 +15,7 @@ import multicosim.attacks as attacks
 import multicosim.px4 as px4
 import multicosim.rover as rover
 from multicosim.attacks import strategies as ast
-from multicosim.geo import LocalProjection
+from multicosim.core.geo import LocalProjection
 from multicosim.px4 import hil
 from multicosim.rover import MagneticField, Position
 

@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Any
 
 import multicosim.rover as rover
-from multicosim._fidelity import check_fidelity
+from multicosim.core.fidelity import check_fidelity
 
 REQUIREMENT = "always (speed <= 4.5)"  # violated by the faster missions of the design
 RANGES = {"speed": (1.0, 8.0), "distance": (2.0, 6.0)}

@@ -15,7 +15,7 @@ import pytest
 from hypothesis import strategies as st
 
 import multicosim as mcs
-from multicosim.campaign import (
+from multicosim.search.campaign import (
     ProcessExecutor,
     from_strategy,
     latin_hypercube,

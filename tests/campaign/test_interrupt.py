@@ -13,7 +13,7 @@ from pathlib import Path
 PROGRAM = textwrap.dedent(
     """
     import sys
-    from multicosim.campaign import CampaignInterrupted, run_campaign
+    from multicosim.search.campaign import CampaignInterrupted, run_campaign
     import campaign_programs as programs
 
     pids, out = sys.argv[1], sys.argv[2]

@@ -11,7 +11,7 @@ import campaign_programs as cp
 import pytest
 from test_campaign import kill_when_parked, outcomes
 
-from multicosim.campaign import RayExecutor, latin_hypercube, run_campaign
+from multicosim.search.campaign import RayExecutor, latin_hypercube, run_campaign
 
 ray = pytest.importorskip("ray", reason="ray is not installed (pip install 'multicosim[ray]')")
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 import campaign_programs as cp
 import pytest
 
-import multicosim.taliro as mtaliro
-from multicosim.campaign import ProcessExecutor
+import multicosim.search.taliro as mtaliro
+from multicosim.search.campaign import ProcessExecutor
 
 
 def test_taliro_batches_run_in_the_pool_like_in_process() -> None:

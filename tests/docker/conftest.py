@@ -19,7 +19,7 @@ from pytest_multicosim.plugin import docker_unavailable, require_docker
 def engine() -> Any:
     """The Docker client of this process; skips (or fails) without an engine."""
     require_docker()
-    from multicosim.docker._engine import client
+    from multicosim.docker.engine import client
 
     return client()
 
@@ -60,7 +60,7 @@ def no_docker_leaks(request: pytest.FixtureRequest) -> Iterator[None]:
     if "engine" not in request.fixturenames:
         return
     from multicosim.docker import sweep
-    from multicosim.docker._engine import client, session_id
+    from multicosim.docker.engine import client, session_id
 
     left = _ours(client(), session=session_id())
     if left != ([], []):

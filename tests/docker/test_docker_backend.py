@@ -8,7 +8,6 @@ from typing import Any
 import pytest
 
 import multicosim as mcs
-from multicosim._runtime import derive_seed
 from multicosim.docker import (
     AttachedComponent,
     ContainerComponent,
@@ -17,6 +16,7 @@ from multicosim.docker import (
     ContainerSimulator,
 )
 from multicosim.docker import _selftest as st
+from multicosim.runtime.context import derive_seed
 
 SERVE = "multicosim serve multicosim.docker._selftest:{} --host 0.0.0.0 --port {{port}}"
 WORLD = "multicosim participant multicosim.docker._selftest:World"
@@ -159,7 +159,7 @@ def test_attached_containers_talk_over_localhost(engine: Any, image: str) -> Non
 def test_container_component_publishes_ports_on_loopback(engine: Any, image: str) -> None:
     import zmq
 
-    from multicosim import _wire as wire
+    from multicosim.core import wire
 
     sim = ContainerSimulator()
     nid = sim.add(ContainerComponent(image, SERVE.format("echo").format(port=6000), ports=[6000]))
@@ -208,7 +208,7 @@ def test_several_simulations_side_by_side(engine: Any, image: str) -> None:
 
 
 def test_container_node_manages_a_container_it_is_given(engine: Any, image: str) -> None:
-    from multicosim.docker._engine import NotFound, labels
+    from multicosim.docker.engine import NotFound, labels
 
     container = engine.containers.run(
         image, ["sleep", "60"], detach=True, init=True, labels=labels("test-given")

@@ -32,7 +32,7 @@ def echo(image: str, **kw: Any) -> ContainerFirmwareComponent[st.Echo, st.EchoRe
 
 
 def test_missing_image_says_how_to_build_and_never_pulls(engine: Any, ours: Any) -> None:
-    from multicosim.docker._engine import session_id
+    from multicosim.docker.engine import session_id
 
     missing = "multicosim/does-not-exist:0.0.0"
     sim = ContainerSimulator()
@@ -52,7 +52,7 @@ def test_missing_image_says_how_to_build_and_never_pulls(engine: Any, ours: Any)
 def test_command_that_exits_at_once_is_named_with_code_and_output(
     engine: Any, image: str, ours: Any
 ) -> None:
-    from multicosim.docker._engine import session_id
+    from multicosim.docker.engine import session_id
 
     sim = ContainerSimulator()
     sim.add(echo(image))  # started first: must be removed when the next one fails

@@ -67,7 +67,7 @@ def test_container_component_exits_when_its_host_dies_mid_step(
 
 
 def _logs(engine: Any, container_id: str) -> str:
-    from multicosim.docker._engine import APIError
+    from multicosim.docker.engine import APIError
 
     try:
         raw: bytes = engine.api.logs(container_id)
@@ -77,7 +77,7 @@ def _logs(engine: Any, container_id: str) -> str:
 
 
 def _state(engine: Any, container_id: str) -> str:
-    from multicosim.docker._engine import APIError
+    from multicosim.docker.engine import APIError
 
     try:
         state: str = engine.api.inspect_container(container_id)["State"]["Status"]

@@ -10,14 +10,16 @@ import pytest
 import multicosim as mcs
 import multicosim.px4 as px4
 import multicosim.rover as rover
+from multicosim.core.geo import LocalProjection
 from multicosim.docker import (
     ContainerComponent,
+    ContainerFirmwareComponent,
     ContainerFirmwareNode,
     ContainerNode,
     ContainerSimulation,
+    ContainerSimulator,
     ImageMissingError,
 )
-from multicosim.geo import LocalProjection
 
 HOME = px4.Home()
 PROJ = LocalProjection(HOME.lat, HOME.lon)
@@ -33,10 +35,10 @@ HOLD = px4.Configuration([_waypoint(20, 10, 8)], end="hold", time_limit=40.0)
 
 
 def test_paper_listing_2_rover_with_a_firmware_container(image: str) -> None:
-    simulator = mcs.ContainerSimulator(seed=1)
-    simulator.add(mcs.ContainerComponent(image, rover.world_command()))
+    simulator = ContainerSimulator(seed=1)
+    simulator.add(ContainerComponent(image, rover.world_command()))
     node_id = simulator.add(
-        mcs.ContainerFirmwareComponent(
+        ContainerFirmwareComponent(
             image=image,
             command="multicosim serve multicosim.rover:controller --host 0.0.0.0 --port {port}",
             port=5556,
@@ -119,7 +121,7 @@ def test_px4_same_seed_same_flight_on_process_and_docker(
 
 
 def test_px4_components_in_containers_check_their_image_first(engine: Any) -> None:
-    sim = mcs.ContainerSimulator()
+    sim = ContainerSimulator()
     sim.add(px4.WorldComponent(px4.MuJoCo(), "medium", image="multicosim/missing:0"))
     with pytest.raises(ImageMissingError, match="multicosim/missing:0"):
         sim.start()

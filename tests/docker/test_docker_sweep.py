@@ -78,7 +78,7 @@ def test_sweep_at_session_end_removes_this_process_leftovers(
 
 def test_sweep_command(engine: Any) -> None:
     result = subprocess.run(
-        [sys.executable, "-m", "multicosim.docker", "sweep"],
+        [sys.executable, "-m", "multicosim", "sweep"],
         capture_output=True,
         text=True,
         check=True,

@@ -17,7 +17,7 @@ from __future__ import annotations
 from typing import Any
 
 import multicosim as mcs
-from multicosim.strategies import FreshSimulations
+from multicosim.search.strategies import FreshSimulations
 from multicosim.testing import Cart, CartState, Drive, DriveReport, Speed, drive
 from multicosim.trace import TraceOptions
 

@@ -11,7 +11,7 @@ from falsify_cart import PIT, run
 from hypothesis import strategies as st
 
 import multicosim as mcs
-from multicosim.falsify import (
+from multicosim.search.falsify import (
     OPTIMIZERS,
     Choice,
     FalsificationResult,

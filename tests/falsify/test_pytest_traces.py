@@ -21,7 +21,7 @@ from pathlib import Path
 import pytest
 
 from multicosim import trace
-from multicosim.strategies import FreshSimulations
+from multicosim.search.strategies import FreshSimulations
 
 _trace_key = pytest.StashKey[trace.TestTrace]()
 
@@ -60,9 +60,9 @@ def pytest_runtest_makereport(item, call):
 TEST = """
 from hypothesis import given, settings, strategies as st
 
-import multicosim.strategies as mst
+import multicosim.search.strategies as mst
 from falsify_cart import PIT, CartScenario
-from multicosim.requirements import Requirement
+from multicosim.search.requirements import Requirement
 
 PIT_REQUIREMENT = Requirement(PIT)
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import multicosim as mcs
-from multicosim.requirements import (
+from multicosim.search.requirements import (
     FormulaError,
     Requirement,
     RequirementViolation,

@@ -14,10 +14,10 @@ from hypothesis import strategies as st
 
 import multicosim as mcs
 import multicosim.rover.strategies as rover_st
-import multicosim.strategies as mst
+import multicosim.search.strategies as mst
 from multicosim import FIDELITIES
-from multicosim.geo import LocalProjection
-from multicosim.mujoco import INTEGRATORS, SOLVERS, WorldConfig
+from multicosim.core.geo import LocalProjection
+from multicosim.physics import INTEGRATORS, SOLVERS, WorldConfig
 from multicosim.px4 import Configuration, Home
 from multicosim.px4 import strategies as px4st
 

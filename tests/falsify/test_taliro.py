@@ -10,8 +10,8 @@ import pytest
 from falsify_cart import PIT, run
 
 import multicosim as mcs
-import multicosim.taliro as mtaliro
-from multicosim.requirements import load_rtamt
+import multicosim.search.taliro as mtaliro
+from multicosim.search.requirements import load_rtamt
 from multicosim.trace import read_trace
 
 load_rtamt()  # quiets rtamt's import-time DeprecationWarning before staliro imports it
@@ -53,7 +53,7 @@ def test_the_papers_appendix_with_staliro_objects() -> None:
     ``Gazebo(backend=ODE(iterations=...), step_size=...)`` becomes the MuJoCo
     ``WorldConfig(iterations=..., timestep=...)``; the waypoint becomes the rover's mission.
     """
-    from multicosim.mujoco import WorldConfig
+    from multicosim.physics import WorldConfig
     from multicosim.rover import Mission, Rover
 
     def simulate(static: Mapping[str, float], fidelity: str, seed: int) -> object:

@@ -11,8 +11,8 @@ from mcap.reader import make_reader
 from mcap.writer import Writer
 
 import multicosim as mcs
-from multicosim.requirements import Requirement
-from multicosim.strategies import FreshSimulations
+from multicosim.search.requirements import Requirement
+from multicosim.search.strategies import FreshSimulations
 from multicosim.testing import Cart
 from multicosim.trace import (
     DIALECT,

@@ -14,7 +14,7 @@ import pytest
 from mcs_programs import process_gone
 from plugin_helpers import write_ini
 
-from multicosim._fidelity import FIDELITIES
+from multicosim.core.fidelity import FIDELITIES
 from pytest_multicosim.plugin import BACKENDS, KEEP_TRACES
 
 # -- options and their ini twins ------------------------------------------------------------

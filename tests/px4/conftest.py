@@ -39,13 +39,13 @@ def sitl() -> object:
 def sitl_process(
     *args: str, timeout: float = 30.0, ready: str = "ready"
 ) -> Iterator[subprocess.Popen[bytes]]:
-    """``python -m multicosim.px4 sitl ARGS`` in its own session; killed (group) on exit.
+    """``python -m multicosim px4 sitl ARGS`` in its own session; killed (group) on exit.
 
     It is ready when its output matches ``ready`` (the match is ``proc.ready``).
     """
     with tempfile.TemporaryFile() as out:
         proc = subprocess.Popen(
-            [sys.executable, "-m", "multicosim.px4", "sitl", *args],
+            [sys.executable, "-m", "multicosim", "px4", "sitl", *args],
             stdout=out,
             stderr=subprocess.STDOUT,
             start_new_session=True,

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 import multicosim as mcs
 import multicosim.px4 as px4
-from multicosim.geo import LocalProjection, pressure_altitude, pressure_hpa
+from multicosim.core.geo import LocalProjection, pressure_altitude, pressure_hpa
 from multicosim.px4 import strategies as px4st
 
 

@@ -53,7 +53,7 @@ def test_the_probe_catches_up_with_a_backlog_before_it_asks(udp_port: int) -> No
     # Ten simulated seconds of telemetry wait unread (the probe was descheduled): the probe
     # reads them before its next question, so that the answer's window starts from the
     # autopilot's latest time, not from the backlog's oldest.
-    from multicosim.px4._mav import new_link
+    from multicosim.mavlink.dialect import new_link
 
     link = conformance._Link(udp_port, timeout=5.0)
     autopilot = new_link(1, 1)

@@ -5,8 +5,8 @@ from __future__ import annotations
 import math
 import random
 
-from multicosim.geo import GRAVITY, LocalProjection
-from multicosim.px4._estimator import Estimator
+from multicosim.core.geo import GRAVITY, LocalProjection
+from multicosim.px4.autopilot.estimator import Estimator
 
 
 def _field(yaw: float) -> tuple[float, float, float]:

@@ -12,7 +12,7 @@ import pytest
 
 import multicosim as mcs
 import multicosim.px4 as px4
-from multicosim.falsify import Level, falsify
+from multicosim.search.falsify import Level, falsify
 
 SITL = px4.SITL(image="multicosim/px4-sitl:0.1.0")
 

@@ -7,7 +7,7 @@ import math
 from hypothesis import given
 from hypothesis import strategies as st
 
-from multicosim.px4._mav import decode_frames, dialect, new_link, pack_scalar, remember
+from multicosim.mavlink.dialect import decode_frames, dialect, new_link, pack_scalar, remember
 
 i32 = st.integers(-(2**31), 2**31 - 1)
 u32 = st.integers(0, 2**32 - 1)

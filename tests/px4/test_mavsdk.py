@@ -1,6 +1,6 @@
 """MAVSDK (the SDK that drives real PX4) flies a mission on our autopilot over UDP.
 
-The autopilot runs as ``python -m multicosim.px4 sitl`` in its own process, paced at a
+The autopilot runs as ``python -m multicosim px4 sitl`` in its own process, paced at a
 multiple of real time, and sends to the port MAVSDK listens on, as PX4 SITL sends to 14540.
 Nothing is mocked: MAVSDK's C++ core speaks MAVLink over loopback sockets.
 """
@@ -13,7 +13,7 @@ from typing import Any
 
 import pytest
 
-from multicosim.geo import LocalProjection
+from multicosim.core.geo import LocalProjection
 
 mavsdk = pytest.importorskip("mavsdk.asyncio", reason="mavsdk (pip install mavsdk) not installed")
 

@@ -14,8 +14,9 @@ from typing import Any
 
 import pytest
 
-from multicosim.px4._mav import MainMode, Mode, SubMode, decode_custom_mode
-from multicosim.px4._sitl import Link, run_sitl
+from multicosim.mavlink.dialect import MainMode, Mode, SubMode, decode_custom_mode
+from multicosim.mavlink.udp import Link
+from multicosim.px4.standalone import run_sitl
 
 mavutil = pytest.importorskip("pymavlink.mavutil")
 

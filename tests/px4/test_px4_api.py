@@ -10,9 +10,9 @@ from hypothesis import HealthCheck, given, settings
 
 import multicosim as mcs
 import multicosim.px4 as px4
-from multicosim.geo import LocalProjection
+from multicosim.core.geo import LocalProjection
+from multicosim.mavlink.hil import HilGps, MavlinkPacket
 from multicosim.px4 import strategies as px4st
-from multicosim.px4._hil import HilGps, MavlinkPacket
 
 HOME = px4.Home()
 PROJ = LocalProjection(HOME.lat, HOME.lon)
@@ -182,7 +182,7 @@ def test_the_height_reference_follows_ekf2_hgt_ref(height_ref: int | None, desce
 
 
 def test_sensor_topics_carry_mavlink_frames_at_medium_wire() -> None:
-    from multicosim.px4._hil import HilSensor, pack, read, unpack
+    from multicosim.mavlink.hil import HilSensor, pack, read, unpack
 
     msg = HilSensor(1, 0.1, 0.2, -9.8, 0.0, 0.0, 0.1, 0.2, 0.0, 0.4, 950.0, 0.0, 540.0, 12.0, 0x3F)
     packet = pack(msg)

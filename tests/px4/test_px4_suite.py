@@ -25,7 +25,7 @@ from typing import Any
 
 import pytest
 
-from multicosim.geo import LocalProjection
+from multicosim.core.geo import LocalProjection
 from pytest_multicosim.px4 import real_px4
 
 pytest.importorskip("mavsdk.asyncio", reason="mavsdk (pip install mavsdk) not installed")

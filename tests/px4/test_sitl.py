@@ -26,12 +26,13 @@ from pymavlink import mavutil
 
 import multicosim as mcs
 import multicosim.px4 as px4
-from multicosim.geo import LocalProjection
-from multicosim.px4._config import world_topics
-from multicosim.px4._hil import Truth, Wire
-from multicosim.px4._hilserver import HilTcpBridge
-from multicosim.px4._real import API_LOCAL_PORT, API_PORT, claim_instance
-from multicosim.px4._simulator import WorldComponent
+from multicosim.core.geo import LocalProjection
+from multicosim.mavlink.hil import Truth, Wire
+from multicosim.mavlink.hil_bridge import HilTcpBridge
+from multicosim.mavlink.mission import world_topics
+from multicosim.mavlink.udp import API_PORT
+from multicosim.px4.scenario import WorldComponent
+from multicosim.px4.sitl import API_LOCAL_PORT, claim_instance
 from pytest_multicosim.px4 import RealPX4
 
 HOME = px4.Home()

@@ -20,7 +20,7 @@ def test_mission(rover_simulation, mcs_fidelity, mcs_seed):
 
 @pytest.fixture
 def rover_world_config():
-    from multicosim.mujoco import WorldConfig
+    from multicosim.physics import WorldConfig
     return WorldConfig(period=0.05, timestep=0.005)
 
 @pytest.mark.fidelity("low")

@@ -9,7 +9,7 @@ import msgspec
 import pytest
 
 import multicosim as mcs
-from multicosim.geo import quaternion_from_euler
+from multicosim.core.geo import quaternion_from_euler
 from multicosim.rover import (
     COMMAND_TOPIC,
     MAX_STEERING,
@@ -264,10 +264,10 @@ def test_planned_endpoint() -> None:
 
 
 def test_public_names() -> None:
-    import multicosim.mujoco
+    import multicosim.physics
     import multicosim.rover
 
-    for module in (multicosim.rover, multicosim.mujoco):
+    for module in (multicosim.rover, multicosim.physics):
         missing = [name for name in module.__all__ if not hasattr(module, name)]
         assert not missing, f"{module.__name__} does not define {missing}"
         assert sorted(module.__all__) == sorted(set(module.__all__))

@@ -12,7 +12,7 @@ from hypothesis import HealthCheck, given, settings
 
 import multicosim as mcs
 import multicosim.rover as rover
-from multicosim.mujoco import WorldConfig
+from multicosim.physics import WorldConfig
 from multicosim.rover import (
     ABORT_TOPIC,
     SENSOR_TOPICS,
@@ -224,7 +224,7 @@ def test_typed_interfaces() -> None:
     """Rover is a Simulator; the controller node is typed (checked by mypy on this file)."""
     from typing import assert_type
 
-    from multicosim._local import LocalEnvironment
+    from multicosim.local import LocalEnvironment
 
     simulator: mcs.Simulator[LocalEnvironment] = rover.Rover(fidelity="low")
     simulation = rover.Rover(fidelity="low").start()
@@ -240,7 +240,7 @@ def test_listing_2_shape(no_leaks: None) -> None:
     """The paper's listing 2: world and firmware components added to a simulator by hand."""
     simulator = mcs.ProcessSimulator(seed=0)
     simulator.add(
-        mcs.ProcessComponent("python -m multicosim participant multicosim.mujoco:rover_world")
+        mcs.ProcessComponent("python -m multicosim participant multicosim.rover.body:rover_world")
     )
     node_id = simulator.add(
         mcs.ProcessFirmwareComponent(

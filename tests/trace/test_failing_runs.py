@@ -25,7 +25,7 @@ import pytest
 from mcap.reader import make_reader
 from pymavlink import mavutil
 
-from multicosim.geo import EARTH_RADIUS
+from multicosim.core.geo import EARTH_RADIUS
 from multicosim.trace import read_trace
 from multicosim.trace._plot import figure
 
@@ -37,7 +37,7 @@ import pytest
 
 import multicosim.px4 as px4
 import multicosim.rover as rover
-from multicosim.requirements import Requirement
+from multicosim.search.requirements import Requirement
 
 
 @pytest.mark.fidelity("low", "medium")

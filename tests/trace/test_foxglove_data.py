@@ -8,9 +8,9 @@ from typing import Any
 import jsonschema
 import pytest
 
-from multicosim.geo import quaternion_from_euler, swap_attitude_frames
-from multicosim.px4._mav import dialect, new_link
-from multicosim.px4._trace import mavlink_message, mavlink_schema
+from multicosim.core.geo import quaternion_from_euler, swap_attitude_frames
+from multicosim.mavlink.dialect import dialect, new_link
+from multicosim.mavlink.trace import mavlink_message, mavlink_schema
 from multicosim.trace import DIALECT, foxglove_schema, message_path
 from multicosim.trace._tlog import split_frames
 

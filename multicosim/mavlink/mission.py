@@ -1,0 +1,253 @@
+"""Configuration and result types of the PX4 scenario, validated on construction.
+
+Everything here is a frozen msgspec Struct: it is a message (sent to the firmware node, or
+passed as JSON to a component process) and a configuration (invalid values raise
+:class:`~multicosim.ConfigurationError` naming the field before anything starts).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Literal
+
+import msgspec
+
+from ..core.errors import ConfigurationError
+from ..core.geo import Home, LocalProjection
+from ..physics.config import WorldConfig, check_sensor_topics
+
+__all__ = [
+    "Configuration",
+    "FlightSample",
+    "Geofence",
+    "Home",
+    "MissionResult",
+    "MuJoCo",
+    "Topics",
+    "Waypoint",
+    "WaypointReached",
+    "world_topics",
+]
+
+MissionEnd = Literal["land", "rtl", "hold"]
+
+
+def check_number(
+    field: str, value: object, lo: float = -math.inf, hi: float = math.inf, *, open_lo: bool = False
+) -> float:
+    """Return ``value`` as a float if it is a finite number in range, else raise."""
+    bracket = "(" if open_lo else "["
+    allowed = f"a finite number in {bracket}{lo:g}, {hi:g}]"
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ConfigurationError(field, value, allowed)
+    v = float(value)
+    if not math.isfinite(v) or v < lo or v > hi or (open_lo and v == lo):
+        raise ConfigurationError(field, value, allowed)
+    return v
+
+
+class Topics(msgspec.Struct, frozen=True):
+    """Topic names of the simulator interface; remap them to insert injectors or bridges.
+
+    The world publishes ``imu``, ``mag``, ``baro``, ``gps`` and ``truth`` (these defaults,
+    moved by ``WorldConfig.sensor_topics``) and reads ``actuators``; the autopilot reads the
+    four sensor topics and publishes ``actuators``. Giving the world and the autopilot
+    different names lets a component sit in between (for example a GPS attack reading
+    ``px4/gps`` and publishing ``px4/gps/attacked``).
+    """
+
+    imu: str = "px4/imu"
+    mag: str = "px4/mag"
+    baro: str = "px4/baro"
+    gps: str = "px4/gps"
+    actuators: str = "px4/actuators"
+    truth: str = "px4/truth"
+
+    def __post_init__(self) -> None:
+        for field in self.__struct_fields__:
+            value = getattr(self, field)
+            if not isinstance(value, str) or not value:
+                raise ConfigurationError(f"topics.{field}", value, "a non-empty topic name")
+
+
+SENSORS = ("imu", "mag", "baro", "gps", "truth")
+"""The quadrotor world's sensors (``WorldConfig.sensor_topics`` keys)."""
+
+
+def world_topics(world: WorldConfig) -> Topics:
+    """The topics a quadrotor world configured by ``world`` publishes on and reads."""
+    check_sensor_topics(world, dict.fromkeys(SENSORS, ""))
+    if not world.sensor_topics:
+        return _DEFAULT_TOPICS
+    return Topics(**{**msgspec.structs.asdict(_DEFAULT_TOPICS), **world.sensor_topics})
+
+
+_DEFAULT_TOPICS = Topics()
+
+MuJoCo = WorldConfig
+"""The PX4 scenario's world configuration (the paper's ``px4.Gazebo()``): MuJoCo's."""
+
+
+class Geofence(msgspec.Struct, frozen=True):
+    """A cylinder around home that missions must stay in (PX4's GF_MAX_HOR/VER_DIST)."""
+
+    radius: float = 1000.0
+    max_alt: float = 120.0
+
+    def __post_init__(self) -> None:
+        check_number("geofence.radius", self.radius, 0.0, 100_000.0, open_lo=True)
+        check_number("geofence.max_alt", self.max_alt, 0.0, 10_000.0, open_lo=True)
+
+
+class Waypoint(msgspec.Struct, frozen=True):
+    """A mission waypoint: WGS84 latitude/longitude (degrees), altitude above home (m)."""
+
+    lat: float
+    lon: float
+    alt: float
+
+    def __post_init__(self) -> None:
+        check_number("lat", self.lat, -90.0, 90.0)
+        check_number("lon", self.lon, -180.0, 180.0)
+        check_number("alt", self.alt, 0.0, 10_000.0)
+
+
+class Configuration(msgspec.Struct, frozen=True):
+    """What the ground station is told to fly (the paper's ``px4.Configuration(mission)``).
+
+    ``end``: after the last waypoint, ``"land"`` there, return and land (``"rtl"``) or hold
+    position (``"hold"``). ``takeoff_alt`` defaults to the first waypoint's altitude.
+    ``time_limit`` bounds the mission in simulated seconds: past it the result is incomplete.
+    """
+
+    mission: list[Waypoint]
+    end: MissionEnd = "land"
+    cruise_speed: float = 5.0
+    acceptance_radius: float = 2.0
+    takeoff_alt: float | None = None
+    time_limit: float = 600.0
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.mission, list | tuple) or not self.mission:
+            raise ConfigurationError("mission", self.mission, "a non-empty list of px4.Waypoint")
+        for i, wp in enumerate(self.mission):
+            if not isinstance(wp, Waypoint):
+                raise ConfigurationError(f"mission[{i}]", wp, "a px4.Waypoint")
+        if self.end not in ("land", "rtl", "hold"):
+            raise ConfigurationError("end", self.end, "'land', 'rtl' or 'hold'")
+        check_number("cruise_speed", self.cruise_speed, 0.5, 20.0)
+        check_number("acceptance_radius", self.acceptance_radius, 0.3, 50.0)
+        if self.takeoff_alt is not None:
+            check_number("takeoff_alt", self.takeoff_alt, 1.0, 1000.0)
+        check_number("time_limit", self.time_limit, 0.0, 86_400.0, open_lo=True)
+
+    def check_geofence(self, home: Home, fence: Geofence) -> None:
+        """Raise ConfigurationError naming the first waypoint outside ``fence`` around ``home``."""
+        proj = LocalProjection(home.lat, home.lon)
+        for i, wp in enumerate(self.mission):
+            north, east = proj.project(wp.lat, wp.lon)
+            dist = math.hypot(north, east)
+            if dist > fence.radius:
+                raise ConfigurationError(
+                    f"mission[{i}]",
+                    wp,
+                    f"a waypoint within the geofence ({dist:.0f} m from home > "
+                    f"radius {fence.radius:g} m)",
+                )
+            if wp.alt > fence.max_alt:
+                raise ConfigurationError(
+                    f"mission[{i}].alt", wp.alt, f"at most the geofence's {fence.max_alt:g} m"
+                )
+        if self.takeoff_alt is not None and self.takeoff_alt > fence.max_alt:
+            raise ConfigurationError(
+                "takeoff_alt", self.takeoff_alt, f"at most the geofence's {fence.max_alt:g} m"
+            )
+
+
+class FlightSample(msgspec.Struct, frozen=True, kw_only=True):
+    """One trajectory sample as the ground station sees it, plus the world's ground truth.
+
+    ``lat``/``lon`` (deg), ``alt`` (m above home) and ``x``/``y``/``z`` (local NED, m) are the
+    autopilot's estimate as it last reported it; ``true_*`` are the world's truth (they
+    differ when sensors lie). The ground station takes one sample per period (20 Hz at
+    medium fidelity and above, 10 Hz at low).
+    ``mode`` is PX4's mode name (``AUTO.MISSION``), ``current`` the MAVLink sequence number
+    of the current mission item (0: takeoff, 1..n: the configured waypoints, then land/RTL).
+    """
+
+    time: float
+    lat: float
+    lon: float
+    alt: float
+    x: float
+    y: float
+    z: float
+    vx: float
+    vy: float
+    vz: float
+    roll: float
+    pitch: float
+    yaw: float
+    mode: str
+    armed: bool
+    current: int
+    true_lat: float
+    true_lon: float
+    true_alt: float
+
+
+class WaypointReached(msgspec.Struct, frozen=True, kw_only=True):
+    """Waypoint ``index`` (into the configured mission) was reached at simulated ``time``."""
+
+    index: int
+    time: float
+
+
+class MissionResult(msgspec.Struct, frozen=True, kw_only=True):
+    """The reply to a Configuration: trajectory, reached waypoints, outcome.
+
+    ``completed`` says whether the mission ran to its configured end (landed and disarmed,
+    or holding at the last waypoint); ``reason`` says why not. ``messages`` holds the
+    autopilot's STATUSTEXT messages; ``firmware_version`` the flight software version it
+    reported (AUTOPILOT_VERSION, e.g. ``"1.15.4"``).
+    """
+
+    trajectory: list[FlightSample]
+    reached: list[WaypointReached]
+    completed: bool
+    reason: str
+    start_time: float
+    end_time: float
+    landed: bool
+    armed: bool
+    messages: list[str] = msgspec.field(default_factory=list)
+    firmware_version: str = ""
+
+    @property
+    def duration(self) -> float:
+        """Simulated seconds the mission took."""
+        return self.end_time - self.start_time
+
+    def path_gap(self, other: MissionResult, *, above: float = 0.5) -> tuple[float, float]:
+        """Mean and max horizontal distance (m) from this flight's true path to ``other``'s.
+
+        Each true position more than ``above`` m up is measured to the nearest airborne true
+        position of ``other``: how far apart two flights went, whenever each got there.
+        """
+        if not self.trajectory or not other.trajectory:
+            raise ConfigurationError("trajectory", [], "two flights with samples")
+        first = self.trajectory[0]
+        projection = LocalProjection(first.true_lat, first.true_lon)
+
+        def track(result: MissionResult) -> list[tuple[float, float]]:
+            return [
+                projection.project(s.true_lat, s.true_lon)
+                for s in result.trajectory
+                if s.true_alt > above
+            ]
+
+        mine, theirs = track(self), track(other)
+        if not mine or not theirs:
+            raise ConfigurationError("trajectory", [], f"flights that rose above {above:g} m")
+        gaps = [min(math.dist(p, q) for q in theirs) for p in mine]
+        return sum(gaps) / len(gaps), max(gaps)

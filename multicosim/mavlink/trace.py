@@ -1,0 +1,343 @@
+"""What a trace of the PX4 scenario shows, in channels Foxglove understands.
+
+* The MAVLink links between ground station and autopilot (``px4/mavlink/up`` and ``down``),
+  and the HIL frames between world and autopilot where they travel as MAVLink, are decoded
+  into one channel per message type (``px4/mavlink/down/ATTITUDE``, ...), each with a JSON
+  schema generated from pymavlink's message definitions. The links also go to a ``.tlog``.
+* ``px4/log``: the autopilot's STATUSTEXT as ``foxglove.Log``.
+* ``px4/pose``: the autopilot's attitude (ATTITUDE_QUATERNION, else ATTITUDE) at its estimated
+  position, as ``foxglove.PoseInFrame`` in an east-north-up ``map`` frame (FLU body).
+* ``px4/location/estimate`` (GLOBAL_POSITION_INT) and ``px4/location/truth`` (the world's
+  truth): two ``foxglove.LocationFix`` tracks; ``mcs/path/estimate`` and ``mcs/path/truth``
+  the same in metres from home, for the plot.
+* ``px4/mission``: the uploaded mission (MISSION_ITEM_INT) as ``foxglove.GeoJSON`` for the
+  Map panel, and ``mcs/plan`` for the plot.
+* The layout plots each position setpoint (POSITION_TARGET_LOCAL_NED) beside the estimate.
+"""
+
+from __future__ import annotations
+
+import functools
+import inspect
+import json
+import math
+from collections.abc import Iterable, Iterator
+from typing import TYPE_CHECKING, Any
+
+from ..core.geo import LocalProjection, quaternion_from_euler, swap_attitude_frames
+from ..trace import (
+    DIALECT,
+    GEOJSON,
+    LOCATION_FIX,
+    LOG,
+    PATH_CHANNEL,
+    PATH_POINT,
+    PLAN,
+    PLAN_CHANNEL,
+    POSE_IN_FRAME,
+    Converted,
+    Schema,
+    TraceOptions,
+    fix_message,
+    message_path,
+    pose_message,
+    stamp,
+)
+from .dialect import decode_frames, dialect, new_link
+from .hil import MavlinkPacket, Truth
+
+if TYPE_CHECKING:
+    from ..core.geo import Home
+
+__all__ = ["mavlink_message", "mavlink_schema", "mission_trace"]
+
+LOG_CHANNEL = "px4/log"
+POSE_CHANNEL = "px4/pose"
+ESTIMATE_FIX = "px4/location/estimate"
+TRUTH_FIX = "px4/location/truth"
+MISSION_CHANNEL = "px4/mission"
+
+# MAV_SEVERITY (0 emergency .. 7 debug) -> foxglove.LogLevel (1 debug .. 5 fatal).
+_LOG_LEVEL = {0: 5, 1: 5, 2: 5, 3: 4, 4: 3, 5: 2, 6: 2, 7: 1}
+# C types of MAVLink fields: JSON integer bounds.
+_INT_RANGE = {
+    "int8_t": (-(2**7), 2**7 - 1),
+    "uint8_t": (0, 2**8 - 1),
+    "int16_t": (-(2**15), 2**15 - 1),
+    "uint16_t": (0, 2**16 - 1),
+    "int32_t": (-(2**31), 2**31 - 1),
+    "uint32_t": (0, 2**32 - 1),
+    "int64_t": (-(2**63), 2**63 - 1),
+    "uint64_t": (0, 2**64 - 1),
+}
+
+
+# -- MAVLink messages as typed JSON ---------------------------------------------------------
+
+
+@functools.cache
+def mavlink_schema(cls: Any) -> Schema:
+    """The JSON schema of a pymavlink message class, from its field definitions.
+
+    Integers carry their C type's range, floats may be null (NaN means "unset" in MAVLink),
+    ``char`` arrays are strings; descriptions name units, enums and bitmasks.
+    """
+    lengths = dict(zip(cls.ordered_fieldnames, cls.array_lengths, strict=True))
+    properties: dict[str, Any] = {}
+    for name, ctype in zip(cls.fieldnames, cls.fieldtypes, strict=True):
+        length = lengths.get(name, 0)
+        if ctype == "char":
+            item: dict[str, Any] = {"type": "string", "maxLength": max(length, 1)}
+        else:
+            bounds = _INT_RANGE.get(ctype)
+            base: dict[str, Any] = (
+                {"type": "integer", "minimum": bounds[0], "maximum": bounds[1]}
+                if bounds is not None
+                else {"type": ["number", "null"]}
+            )
+            item = (
+                {"type": "array", "items": base, "minItems": length, "maxItems": length}
+                if length
+                else base
+            )
+        notes = [f"C type {ctype}" + (f"[{length}]" if length else "")]
+        if cls.fieldunits_by_name.get(name):
+            notes.append(f"unit {cls.fieldunits_by_name[name]}")
+        if cls.fieldenums_by_name.get(name):
+            kind = "bitmask of" if cls.fielddisplays_by_name.get(name) == "bitmask" else "enum"
+            notes.append(f"{kind} {cls.fieldenums_by_name[name]}")
+        item["description"] = ", ".join(notes)
+        properties[name] = item
+    title = f"mavlink.common.{cls.msgname}"
+    return Schema(
+        title,
+        {
+            "$schema": DIALECT,
+            "title": title,
+            "description": inspect.cleandoc(cls.__doc__ or cls.msgname),
+            "type": "object",
+            "properties": properties,
+            "required": list(cls.fieldnames),
+        },
+    )
+
+
+def mavlink_message(m: Any) -> dict[str, Any]:
+    """A decoded pymavlink message as a JSON-ready dict of its fields (NaN becomes null)."""
+    out: dict[str, Any] = {}
+    for name in m.fieldnames:
+        value = getattr(m, name)
+        if isinstance(value, bytes | bytearray):
+            value = bytes(value).split(b"\0", 1)[0].decode("utf-8", "replace")
+        out[name] = value
+    return out
+
+
+# -- attitude -------------------------------------------------------------------------------
+
+
+# -- the converters -------------------------------------------------------------------------
+
+
+class _Links:
+    """Decodes MAVLink topics into per-type channels and derives the Foxglove channels."""
+
+    def __init__(
+        self,
+        topics: tuple[str, ...],
+        uplink: str,
+        downlink: str,
+        home: Home,
+        dialect_name: str = "common",
+    ) -> None:
+        self.topics = topics
+        self._dialect = dialect_name
+        self._uplink = uplink
+        self._downlink = downlink
+        self._parsers: dict[str, Any] = {}
+        self._home = home
+        self._projection = LocalProjection(home.lat, home.lon)
+        self._local: Any = None
+        self._quaternions = False
+        self._items: dict[int, Any] = {}
+        self._count = 0
+
+    def __call__(self, topic: str, time_ns: int, message: Any) -> Iterable[Converted]:
+        data = message.get("data") if isinstance(message, dict) else None
+        if not isinstance(data, bytes):
+            return ()
+        parser = self._parsers.get(topic)
+        if parser is None:
+            parser = self._parsers[topic] = new_link(0, 0, self._dialect)
+        return list(self._convert(topic, time_ns, decode_frames(parser, data)))
+
+    def _convert(self, topic: str, time_ns: int, decoded: list[Any]) -> Iterator[Converted]:
+        for m in decoded:
+            kind = m.get_type()
+            if kind == "BAD_DATA":
+                continue
+            cls: Any = type(m)
+            yield Converted(f"{topic}/{kind}", mavlink_schema(cls), mavlink_message(m))
+            if topic == self._downlink:
+                yield from self._downlink_message(kind, m, time_ns)
+            elif topic == self._uplink:
+                yield from self._uplink_message(kind, m, time_ns)
+
+    def _downlink_message(self, kind: str, m: Any, time_ns: int) -> Iterator[Converted]:
+        if kind == "STATUSTEXT":
+            yield Converted(
+                LOG_CHANNEL,
+                LOG,
+                {
+                    "timestamp": stamp(time_ns),
+                    "level": _LOG_LEVEL.get(int(m.severity), 0),
+                    "message": mavlink_message(m)["text"],
+                    "name": f"px4 (system {m.get_srcSystem()})",
+                    "file": "",
+                    "line": 0,
+                },
+            )
+        elif kind == "LOCAL_POSITION_NED":
+            self._local = m
+        elif kind == "ATTITUDE_QUATERNION":
+            self._quaternions = True
+            yield from self._pose(time_ns, (m.q1, m.q2, m.q3, m.q4))
+        elif kind == "ATTITUDE" and not self._quaternions:
+            yield from self._pose(time_ns, quaternion_from_euler(m.roll, m.pitch, m.yaw))
+        elif kind == "GLOBAL_POSITION_INT":
+            lat, lon = m.lat * 1e-7, m.lon * 1e-7
+            yield Converted(
+                ESTIMATE_FIX, LOCATION_FIX, fix_message(time_ns, lat, lon, m.alt * 1e-3)
+            )
+            north, east = self._projection.project(lat, lon)
+            point = {"east": east, "north": north, "up": m.relative_alt * 1e-3}
+            yield Converted(f"{PATH_CHANNEL}/estimate", PATH_POINT, point)
+
+    def _pose(self, time_ns: int, q_ned_frd: tuple[float, ...]) -> Iterator[Converted]:
+        local = self._local
+        if local is None or not all(math.isfinite(v) for v in q_ned_frd):
+            return
+        position = (local.y, local.x, -local.z)  # NED -> ENU
+        yield Converted(
+            POSE_CHANNEL,
+            POSE_IN_FRAME,
+            pose_message(time_ns, position, swap_attitude_frames(q_ned_frd)),
+        )
+
+    def _uplink_message(self, kind: str, m: Any, time_ns: int) -> Iterator[Converted]:
+        if kind == "MISSION_COUNT" and m.mission_type == 0:
+            self._count = int(m.count)
+            self._items = {}
+        elif kind == "MISSION_ITEM_INT" and m.mission_type == 0:
+            self._items[int(m.seq)] = m
+            yield from self._mission(time_ns)
+
+    def _mission(self, time_ns: int) -> Iterator[Converted]:
+        """The mission uploaded so far: takeoff, waypoints, then land or return."""
+        home = self._home
+        points: list[tuple[float, float, float]] = [(0.0, 0.0, 0.0)]  # east, north, up
+        coordinates = [[home.lon, home.lat]]
+        features: list[dict[str, Any]] = []
+        alt = 0.0
+        for seq in sorted(self._items):
+            item = self._items[seq]
+            command = dialect().enums["MAV_CMD"].get(int(item.command))
+            name = (
+                command.name.removeprefix("MAV_CMD_") if command is not None else str(item.command)
+            )
+            if int(item.command) == 20:  # return to launch
+                lat, lon = home.lat, home.lon
+            elif item.x == 0 and item.y == 0:  # no position: where the vehicle is
+                lon, lat = coordinates[-1]
+            else:
+                lat, lon = item.x * 1e-7, item.y * 1e-7
+            alt = float(item.z) if int(item.command) != 21 else 0.0
+            if int(item.command) == 20:
+                points.append((0.0, 0.0, points[-1][2]))
+                alt = 0.0
+            north, east = self._projection.project(lat, lon)
+            points.append((east, north, alt))
+            coordinates.append([lon, lat])
+            features.append(
+                {
+                    "type": "Feature",
+                    "geometry": {"type": "Point", "coordinates": [lon, lat]},
+                    "properties": {"name": f"{seq}: {name} at {alt:g} m"},
+                }
+            )
+        line = {
+            "type": "Feature",
+            "geometry": {"type": "LineString", "coordinates": coordinates},
+            "properties": {"name": "mission", "style": {"color": "#ff7f0e", "dashArray": "6 4"}},
+        }
+        collection = {"type": "FeatureCollection", "features": [line, *features]}
+        yield Converted(MISSION_CHANNEL, GEOJSON, {"geojson": json.dumps(collection)})
+        plan = [{"east": e, "north": n, "up": u} for e, n, u in points]
+        yield Converted(PLAN_CHANNEL, PLAN, {"points": plan})
+
+
+class _Truth:
+    """The world's truth as a LocationFix track and a path in metres from home."""
+
+    def __init__(self, topic: str, home: Home) -> None:
+        self.topics = (topic,)
+        self._home_alt = home.alt
+
+    def __call__(self, topic: str, time_ns: int, message: Any) -> Iterable[Converted]:
+        m = message
+        return (
+            Converted(
+                TRUTH_FIX,
+                LOCATION_FIX,
+                fix_message(time_ns, m["lat"], m["lon"], self._home_alt + m["alt"]),
+            ),
+            Converted(
+                f"{PATH_CHANNEL}/truth",
+                PATH_POINT,
+                {"east": m["east"], "north": m["north"], "up": m["alt"]},
+            ),
+        )
+
+
+def mission_trace(
+    *,
+    uplink: str,
+    downlink: str,
+    truth: str,
+    home: Home,
+    types: dict[str, Any],
+    links: tuple[str, ...] | None = None,
+    dialect_name: str = "common",
+) -> TraceOptions:
+    """Trace options of a ground station's MAVLink link and the world's truth (any autopilot).
+
+    ``links`` are the MAVLink topics decoded into channels (default: the uplink and the
+    downlink); ``types`` the other topics' message types.
+    """
+    links = links or (uplink, downlink)
+    types = {**types, truth: Truth, uplink: MavlinkPacket, downlink: MavlinkPacket}
+    target = f"{downlink}/POSITION_TARGET_LOCAL_NED"
+    local = f"{downlink}/LOCAL_POSITION_NED"
+    plots = [
+        (
+            f"{axis}: setpoint vs estimate (local NED, m)",
+            [message_path(target, field), message_path(local, field)],
+        )
+        for axis, field in (("north", "x"), ("east", "y"), ("down", "z"))
+    ]
+    plots.append(
+        (
+            "height above home: estimate vs truth (m)",
+            [
+                message_path(f"{PATH_CHANNEL}/estimate", "up"),
+                message_path(f"{PATH_CHANNEL}/truth", "up"),
+            ],
+        )
+    )
+    return TraceOptions(
+        types=types,
+        converters=[_Links(links, uplink, downlink, home, dialect_name), _Truth(truth, home)],
+        replaced=links,
+        tlog=(uplink, downlink),
+        plots=plots,
+    )

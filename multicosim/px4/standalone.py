@@ -1,0 +1,143 @@
+"""Standalone SITL: world and autopilot in real time, talking MAVLink over UDP.
+
+Like PX4 SITL, each link is a UDP socket bound on the host that sends to a fixed remote
+port (14550 for a ground station such as QGroundControl, 14540 for an API client such as
+MAVSDK) and, once a peer has sent something, answers that peer wherever it is. The
+simulation runs paced to wall time (times ``speed``, like PX4_SIM_SPEED_FACTOR) until it is
+stopped; every socket and component is released on exit, Ctrl-C included.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import threading
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import msgspec
+
+from ..core.fidelity import Fidelity
+from ..local import InProcessComponent, LocalEnvironment, ProcessSimulator
+from ..mavlink.mission import MuJoCo, world_topics
+from ..mavlink.sitl import SitlNodes
+from ..mavlink.udp import API_PORT, GCS_PORT, Link, UdpBridge
+from .autopilot.firmware import Autopilot
+from .scenario import PX4Component, WorldComponent
+from .sitl import SITL
+
+__all__ = ["run_real_sitl", "run_sitl"]
+
+log = logging.getLogger(__name__)
+
+
+def run_sitl(
+    *,
+    fidelity: Fidelity = "low",
+    speed: float = 1.0,
+    links: list[Link] | None = None,
+    world: MuJoCo | None = None,
+    seed: int = 0,
+    duration: float | None = None,
+    stop: threading.Event | None = None,
+    on_ready: Callable[[list[int]], None] | None = None,
+) -> float:
+    """Run world + autopilot + UDP links paced at ``speed`` x real time.
+
+    Runs until ``duration`` simulated seconds have passed, ``stop`` is set, or Ctrl-C; returns
+    the simulated time reached. ``on_ready`` gets the bound local ports once the links exist.
+    """
+    world = world or MuJoCo()
+    links = links if links is not None else [Link(GCS_PORT, 18570), Link(API_PORT, 14580)]
+    px4 = PX4Component(world, fidelity, process=False)
+    # PX4's API-link streams: what MAVSDK and ground stations get from real PX4 SITL.
+    spec = msgspec.structs.replace(px4.spec, streams="onboard")
+    sim = ProcessSimulator(seed=seed, realtime=speed)
+    sim.add(WorldComponent(world, fidelity, process=False))
+    sim.add(InProcessComponent(lambda: Autopilot(spec), "px4"))
+    bridge_id = sim.add(
+        InProcessComponent(lambda: UdpBridge(links, spec.uplink, spec.downlink, spec.period), "udp")
+    )
+    with sim.start() as simulation:
+        bridge: Any = simulation.get(bridge_id).participant
+        if on_ready is not None:
+            on_ready(bridge.local_ports)
+        log.info("SITL running at %gx real time; links %s", speed, links)
+        return _run(simulation, duration, stop)
+
+
+def _run(simulation: Any, duration: float | None, stop: threading.Event | None) -> float:
+    """Advance ``simulation`` until ``duration`` or ``stop``; the simulated time reached."""
+    while (stop is None or not stop.is_set()) and (duration is None or simulation.time < duration):
+        step = 0.25 if duration is None else min(0.25, duration - simulation.time)
+        simulation.advance(max(step, 1e-3))
+    return float(simulation.time)
+
+
+@dataclasses.dataclass(frozen=True)
+class _StandalonePX4:
+    """Real PX4 with only its simulator bridge: PX4 keeps its own MAVLink links and ports."""
+
+    sitl: SITL
+    world: MuJoCo
+    params: dict[str, float]
+    name: str = "px4"
+
+    def start(self, environment: LocalEnvironment) -> SitlNodes:
+        from .sitl import start_sitl
+
+        return start_sitl(
+            self.sitl,
+            environment,
+            name=self.name,
+            topics=world_topics(self.world),
+            period=self.world.period,
+            wire="native",
+            uplink=None,
+            downlink="",
+            params=self.params,
+        )
+
+
+def run_real_sitl(
+    sitl: SITL,
+    *,
+    speed: float = 1.0,
+    world: MuJoCo | None = None,
+    seed: int = 0,
+    duration: float | None = None,
+    stop: threading.Event | None = None,
+    on_ready: Callable[[int, Path], None] | None = None,
+) -> float:
+    """Run real PX4 SITL on our MuJoCo world, paced at ``speed`` x real time, in lockstep.
+
+    PX4 keeps its usual MAVLink links (QGroundControl on UDP 14550, MAVSDK on 14540 + its
+    instance number), so ground stations fly it as they fly PX4 with Gazebo. With only an
+    image, PX4 runs in a container (instance 0) whose links reach those ports on this host.
+    Runs until ``duration`` simulated seconds, ``stop`` or Ctrl-C; returns the simulated
+    time reached.
+    ``on_ready`` gets PX4's instance number and the run directory (PX4's output and working
+    directory) once PX4 is connected.
+    """
+    from .scenario import PX4Component, sitl_period
+
+    world = world or MuJoCo()
+    world = dataclasses.replace(world, period=sitl_period(world))
+    params = PX4Component(world, "medium", firmware=sitl).sitl_params()
+    sim: Any
+    if sitl.binary is None:
+        # In a container on a network of its own, PX4 sends its links to the host.
+        from ..docker import ContainerSimulator
+
+        sim = ContainerSimulator(seed=seed, realtime=speed)
+    else:
+        sim = ProcessSimulator(seed=seed, realtime=speed)
+    sim.add(WorldComponent(world, "medium", process=False))
+    px4_id = sim.add(_StandalonePX4(sitl, world, params))
+    with sim.start() as simulation:
+        instance = simulation.get(px4_id).instance
+        if on_ready is not None:
+            on_ready(instance, simulation.run_dir)
+        log.info("real PX4 SITL (instance %d) running at %gx real time", instance, speed)
+        return _run(simulation, duration, stop)

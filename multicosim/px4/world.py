@@ -1,0 +1,145 @@
+"""The physics world of the PX4 scenario: a participant publishing PX4's sensor messages.
+
+Two vehicle models, the same sensor messages (:class:`~multicosim.mavlink.sensors.HilSensors`):
+
+* ``point_mass`` (low fidelity): a point mass whose velocity follows the autopilot's velocity
+  setpoint with a first-order lag, ideal sensors; scalar math so a minute of flight costs
+  milliseconds;
+* ``mujoco`` (medium and up, and what real PX4 flies): the shared MuJoCo world
+  (:class:`multicosim.physics.World`) with the quadrotor vehicle built from PX4's ``none_iris``
+  airframe, driven by the four motor outputs, with noisy sensors.
+
+Both read HIL_ACTUATOR_CONTROLS from the actuator topic and publish HIL_SENSOR, HIL_GPS and
+the ground truth.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Literal
+
+import msgspec
+
+from ..core.errors import ConfigurationError
+from ..core.geo import GRAVITY
+from ..mavlink.dialect import MODE_FLAG_ARMED
+from ..mavlink.hil import ACTUATOR_FLAG_VELOCITY, HilActuatorControls, MavlinkPacket, Wire, read
+from ..mavlink.sensors import HilSensors
+from ..physics.config import WorldConfig
+from ..runtime.context import StepContext, Subscription
+
+__all__ = ["PointMassWorld", "WorldSpec", "world"]
+
+
+Model = Literal["point_mass", "mujoco"]
+
+
+class WorldSpec(msgspec.Struct, frozen=True, kw_only=True):
+    """Everything the world participant needs (JSON-encodable, for a world process)."""
+
+    model: Model = "mujoco"
+    world: WorldConfig = msgspec.field(default_factory=WorldConfig)
+    wire: Wire = "native"
+    point_mass_period: float = 0.02
+    velocity_tau: float = 0.35
+
+    def __post_init__(self) -> None:
+        if self.model not in ("point_mass", "mujoco"):
+            raise ConfigurationError("model", self.model, "'point_mass' or 'mujoco'")
+        if self.wire not in ("native", "mavlink"):
+            raise ConfigurationError("wire", self.wire, "'native' or 'mavlink'")
+
+    @property
+    def period(self) -> float:
+        """Simulated seconds between two world steps (and IMU samples)."""
+        return self.point_mass_period if self.model == "point_mass" else self.world.period
+
+
+class PointMassWorld:
+    """Velocity-tracking point mass (north, east, down) with yaw; ground at down = 0.
+
+    The low-fidelity world: the autopilot sends its velocity setpoint in
+    HIL_ACTUATOR_CONTROLS (flagged by ``ACTUATOR_FLAG_VELOCITY``) and the point mass follows
+    it with a first-order lag, standing in for the attitude and rate loops. Sensors are ideal.
+    """
+
+    def __init__(self, spec: WorldSpec) -> None:
+        self.spec = spec
+        self.period = dt = spec.period
+        self.alpha = 1.0 - math.exp(-dt / spec.velocity_tau)
+        self.pos = [0.0, 0.0, 0.0]
+        self.vel = [0.0, 0.0, 0.0]
+        self.yaw = 0.0
+        self.yaw_rate = 0.0
+        self._hil = HilSensors(spec.world, dt, spec.wire, ideal=True)
+        self._actuators: Subscription[Any] | None = None
+        self._cmd: HilActuatorControls | None = None
+        self._mavlink = spec.wire == "mavlink"
+
+    def setup(self, ctx: StepContext) -> None:
+        """Subscribe to the actuator outputs."""
+        tp = MavlinkPacket if self._mavlink else HilActuatorControls
+        self._actuators = ctx.subscribe(self._hil.topics.actuators, tp)
+        self._hil.setup(ctx)
+
+    def step(self, ctx: StepContext) -> None:
+        """Apply the latest velocity setpoint, advance one period, publish the sensors."""
+        sub = self._actuators
+        assert sub is not None
+        if sub._deliveries:
+            latest = sub.latest
+            self._cmd = read(latest, HilActuatorControls) if self._mavlink else latest
+        acc = self._advance(self._cmd)
+        c, s = math.cos(self.yaw), math.sin(self.yaw)
+        # Level attitude: only yaw turns the body; specific force is acceleration minus gravity.
+        fn, fe, fd = acc[0], acc[1], acc[2] - GRAVITY
+        half = 0.5 * self.yaw
+        self._hil.publish(
+            ctx,
+            (self.pos[0], self.pos[1], self.pos[2]),
+            (self.vel[0], self.vel[1], self.vel[2]),
+            (math.cos(half), 0.0, 0.0, math.sin(half)),
+            (c * fn + s * fe, -s * fn + c * fe, fd),
+            (0.0, 0.0, self.yaw_rate),
+        )
+
+    def _advance(self, cmd: HilActuatorControls | None) -> tuple[float, float, float]:
+        dt, vel, pos = self.period, self.vel, self.pos
+        on_ground = pos[2] >= -1e-6
+        if cmd is not None and cmd.mode & MODE_FLAG_ARMED and cmd.flags & ACTUATOR_FLAG_VELOCITY:
+            ctl = cmd.controls
+            sp = (ctl[0], ctl[1], ctl[2])
+            yaw_err = (ctl[3] - self.yaw + math.pi) % (2 * math.pi) - math.pi
+            self.yaw_rate = max(-1.5, min(1.5, yaw_err / 0.3))
+        else:
+            # Unpowered: it falls (and stays on the ground).
+            sp = (0.0, 0.0, 20.0) if not on_ground else (0.0, 0.0, 0.0)
+            self.yaw_rate = 0.0
+        old = (vel[0], vel[1], vel[2])
+        a = self.alpha
+        vel[0] += a * (sp[0] - vel[0])
+        vel[1] += a * (sp[1] - vel[1])
+        vel[2] += a * (sp[2] - vel[2])
+        pos[0] += vel[0] * dt
+        pos[1] += vel[1] * dt
+        pos[2] += vel[2] * dt
+        if pos[2] > 0.0:  # below ground: the ground stops it
+            pos[2] = 0.0
+            vel[2] = min(vel[2], 0.0)
+        if pos[2] >= -1e-6 and sp[2] >= -1e-3:
+            vel[0] = vel[1] = 0.0  # friction: no sliding on the ground
+        self.yaw = (self.yaw + self.yaw_rate * dt + math.pi) % (2 * math.pi) - math.pi
+        return ((vel[0] - old[0]) / dt, (vel[1] - old[1]) / dt, (vel[2] - old[2]) / dt)
+
+
+def world(spec: WorldSpec) -> Any:
+    """The world participant for ``spec``: the point mass, or the MuJoCo quadrotor.
+
+    Also the factory of ``multicosim participant multicosim.px4.world:world --config JSON``.
+    """
+    if spec.model == "point_mass":
+        return PointMassWorld(spec)
+    from ..mavlink.quadrotor import QuadrotorVehicle
+    from ..physics.world import World
+
+    return World(spec.world, QuadrotorVehicle(wire=spec.wire))
