@@ -1,0 +1,130 @@
+"""The package's shape: no import cycle, no package reaching into another's private parts,
+no file over 600 lines (``lint-imports`` checks the layers themselves, in CI).
+
+Every import counts: at module level, inside functions and under ``TYPE_CHECKING``.
+"""
+
+from __future__ import annotations
+
+import ast
+import graphlib
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+PACKAGES = ("multicosim", "pytest_multicosim")
+MAX_LINES = 600
+
+
+def _modules() -> dict[str, Path]:
+    found: dict[str, Path] = {}
+    for package in PACKAGES:
+        for path in sorted((ROOT / package).rglob("*.py")):
+            parts = path.relative_to(ROOT).with_suffix("").parts
+            if parts[-1] == "__init__":
+                parts = parts[:-1]
+            found[".".join(parts)] = path
+    return found
+
+
+MODULES = _modules()
+
+
+def _is_package(module: str) -> bool:
+    return MODULES[module].name == "__init__.py"
+
+
+def _owner(module: str) -> str:
+    """The package a module belongs to: ``multicosim.px4`` for ``multicosim.px4.sitl``;
+    the root package for the root's own modules (``multicosim.testing``)."""
+    parts = module.split(".")
+    if len(parts) > 2 or (len(parts) == 2 and _is_package(module)):
+        return ".".join(parts[:2])
+    return parts[0]
+
+
+def _imports(module: str) -> Iterator[tuple[str, str | None, int]]:
+    """(imported module, imported name or None, line) for every import in ``module``."""
+    path = MODULES[module]
+    tree = ast.parse(path.read_text(encoding="utf-8"), str(path))
+    here = module if _is_package(module) else module.rpartition(".")[0]
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            for alias in node.names:
+                yield alias.name, None, node.lineno
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                anchor = here.split(".")[: len(here.split(".")) - (node.level - 1)]
+                base = ".".join([*anchor, *([node.module] if node.module else [])])
+            for alias in node.names:
+                full = f"{base}.{alias.name}"
+                if full in MODULES:  # ``from package import module``
+                    yield full, None, node.lineno
+                else:
+                    yield base, alias.name, node.lineno
+
+
+def _ours(target: str) -> str | None:
+    """The module of ours that ``target`` is or lies in, if any."""
+    while target and target not in MODULES:
+        target = target.rpartition(".")[0]
+    return target or None
+
+
+def test_no_import_cycle() -> None:
+    graph = {
+        module: {t for name, _, _ in _imports(module) if (t := _ours(name)) and t != module}
+        for module in MODULES
+    }
+    try:
+        tuple(graphlib.TopologicalSorter(graph).static_order())
+    except graphlib.CycleError as cycle:
+        pytest.fail(f"import cycle: {' -> '.join(cycle.args[1])}")
+
+
+def test_no_package_imports_another_packages_private_parts() -> None:
+    offences = []
+    for module in MODULES:
+        for name, attribute, line in _imports(module):
+            target = _ours(name)
+            if target is None or _owner(target) == _owner(module):
+                continue
+            private_module = any(p.startswith("_") and p != "__init__" for p in name.split("."))
+            private_name = attribute is not None and attribute.startswith("_")
+            if private_module or (private_name and not attribute.startswith("__")):
+                shown = f"{name}.{attribute}" if attribute else name
+                offences.append(f"{MODULES[module].relative_to(ROOT)}:{line} imports {shown}")
+    assert not offences, "imports of another package's private parts:\n" + "\n".join(offences)
+
+
+def test_no_file_over_the_limit() -> None:
+    long = {
+        str(path.relative_to(ROOT)): n
+        for path in MODULES.values()
+        if (n := len(path.read_text(encoding="utf-8").splitlines())) > MAX_LINES
+    }
+    assert not long, f"files over {MAX_LINES} lines (split them by concern): {long}"
+
+
+def test_the_world_knows_no_vehicle() -> None:
+    vehicles = ("multicosim.px4", "multicosim.rover", "multicosim.ardupilot", "multicosim.mavlink")
+    reached = {
+        target
+        for module in MODULES
+        if _owner(module) == "multicosim.physics"
+        for name, _, _ in _imports(module)
+        if (target := _ours(name)) and target.startswith(vehicles)
+    }
+    assert not reached, f"multicosim.physics imports vehicles: {sorted(reached)}"
+
+
+def test_the_check_sees_private_imports() -> None:
+    # The walker itself: the rover's package imports its own private modules, which is fine,
+    # and those imports are found (a walker that saw none would pass every check above).
+    found = {name for name, _, _ in _imports("multicosim.rover")}
+    assert "multicosim.rover._scenario" in found
+    assert _owner("multicosim.rover._scenario") == _owner("multicosim.rover") == "multicosim.rover"
+    assert _owner("multicosim.testing") == "multicosim"
