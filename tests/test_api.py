@@ -144,3 +144,23 @@ def test_the_papers_names_are_aliases() -> None:
     import multicosim.docker
 
     assert multicosim.docker.FirmwareComponent is multicosim.docker.ContainerFirmwareComponent
+
+
+@pytest.mark.parametrize(
+    ("short", "home", "name"),
+    [
+        ("multicosim.requirements", "multicosim.search.requirements", "Requirement"),
+        ("multicosim.campaign", "multicosim.search.campaign", "run_campaign"),
+        ("multicosim.falsify", "multicosim.search.falsify", "falsify"),
+        ("multicosim.taliro", "multicosim.search.taliro", "specification"),
+        ("multicosim.strategies", "multicosim.search.strategies", "FreshSimulations"),
+        ("multicosim.geo", "multicosim.core.geo", "LocalProjection"),
+        ("multicosim.mujoco", "multicosim.physics", "WorldConfig"),
+    ],
+)
+def test_the_short_module_names_are_the_same_objects(short: str, home: str, name: str) -> None:
+    import importlib
+
+    assert getattr(importlib.import_module(short), name) is getattr(
+        importlib.import_module(home), name
+    )

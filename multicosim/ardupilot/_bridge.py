@@ -8,7 +8,7 @@ after a second without an answer, and its frame count starts again from 0 when i
 
 :class:`JsonBridge` is that simulator end for our MuJoCo worlds, as a participant stepped
 right after the world, every physics period: it answers ArduPilot's pending servo packet
-with the world's latest :class:`~multicosim.px4.hil.Truth` (stamped with the simulated
+with the world's latest :class:`~multicosim.mavlink.hil.Truth` (stamped with the simulated
 time), waits for the next packet (``lockstep_timeout`` of wall time, ArduPilot's liveness
 checked meanwhile) and publishes its outputs (:class:`ServoOutputs`) for the world's next
 step. Each packet is answered once: copies ArduPilot resent while the simulation was busy

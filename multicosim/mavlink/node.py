@@ -1,25 +1,8 @@
-"""The paper's PX4 classes: ``PX4Component``, the ``PX4`` simulator and its simulation.
+"""The firmware node a ground station flies: ``send(Configuration) -> MissionResult``.
 
-Fidelity picks the models, the backend where they run (the mission logic is the same code):
-
-=========  ==========================  ====================================================
-fidelity   world                       ``backend="process"``
-=========  ==========================  ====================================================
-low        point mass, ideal sensors   world, autopilot and ground station in this process
-medium     MJCF quadrotor in MuJoCo    world and autopilot as two local processes stepped
-           (2 ms step), noisy sensors  in lockstep, exchanging MAVLink HIL frames; ground
-                                       station in this process
-high       as medium, 0.5 ms step and  as medium
-           twice the solver iterations
-=========  ==========================  ====================================================
-
-``backend="docker"`` runs the world and the autopilot, at any fidelity, as containers of
-``multicosim.docker.RUNTIME_IMAGE`` on the simulation's network, exchanging what the process
-backend exchanges at that fidelity (native messages at low, MAVLink HIL frames above); the
-ground station stays in this process. A seed gives the same flight on both backends at the
-same fidelity.
+PX4's and ArduPilot's scenarios both give :class:`MissionNode` as their firmware: the ground
+station (:mod:`.gcs`) in this process, the autopilot wherever it runs.
 """
-
 from __future__ import annotations
 
 import sys

@@ -10,7 +10,7 @@ expects (and our autopilot reads):
 * ``HIL_GPS`` at 10 Hz: WGS84 position and NED velocity with a GNSS error that drifts slowly
   (first-order Gauss-Markov, as a real receiver's does; white position noise would trip
   PX4's GPS drift checks while landed);
-* :class:`~multicosim.px4.hil.Truth` at 20 Hz: the world's ground truth, attitude and
+* :class:`~multicosim.mavlink.hil.Truth` at 20 Hz: the world's ground truth, attitude and
   specific force included.
 
 Noise is scaled by ``WorldConfig.noise`` (0: ideal sensors) and drawn from the component's

@@ -1,26 +1,13 @@
-"""Real PX4 SITL as the firmware of the PX4 scenario: the top of the fidelity ladder.
+"""Launching real SITL firmware (PX4, ArduPilot) beside a simulation: the parts both share.
 
-PX4's SITL build (``px4_sitl_default``) flies our MuJoCo quadrotor the way it flies Gazebo's:
-its ``simulator_mavlink`` module connects to :class:`~._hilserver.HilTcpBridge` (TCP
-4560 + instance, lockstep), and its MAVLink API link is carried to the same ground station
-that drives our built-in autopilot (:mod:`._gcs`), so ``simulation.firmware.send`` flies a
-mission on either.
+Used by :mod:`multicosim.px4.sitl` and :mod:`multicosim.ardupilot.launch`:
 
-Where PX4 comes from is a :class:`SITL`: a ``px4`` binary with its ``etc`` ROMFS beside it
-(``../shared/px4-sitl`` or a ``build/px4_sitl_default`` tree) run as a local process, or an
-image (``multicosim images build --px4-dir DIR``) run as a container on the simulation's
-network. Each PX4 gets:
-
-* its own instance number (claimed by binding its simulator port; the other ports checked
-  free), so parallel runs (``pytest -n 2``) never share ports, lock files or sockets;
-* a fresh working directory in the run directory (PX4 keeps parameters there);
-* a private ``bin`` directory first on its PATH with the ``px4-<module>`` command links its
-  start-up script calls (so a bundle whose links were flattened into files still runs), and
-  the ``px4-rc.params`` / ``px4-rc.mavlink`` hooks that PX4's start-up script sources from
-  the PATH: our parameters, and one MAVLink link to our ground station instead of PX4's
-  defaults (nothing is sent to other programs' ports).
+* :class:`SitlNodes`: the firmware's process or container and its bridges, stopped as one,
+  in reverse start order (a half-started launch is stopped before its error propagates);
+* :func:`run_container`: the firmware as a container on the simulation's network;
+* :func:`copy_out`: flight logs out of a container; :func:`udp_free`,
+  :func:`check_first_instance`, :func:`param_value`: instance claims and parameter files.
 """
-
 from __future__ import annotations
 
 import contextlib

@@ -1,4 +1,5 @@
-"""What a trace of the PX4 scenario shows, in channels Foxglove understands.
+"""What a trace of a MAVLink autopilot's mission shows, in channels Foxglove understands
+(PX4's and ArduPilot's scenarios use it).
 
 * The MAVLink links between ground station and autopilot (``px4/mavlink/up`` and ``down``),
   and the HIL frames between world and autopilot where they travel as MAVLink, are decoded
@@ -14,7 +15,6 @@
   Map panel, and ``mcs/plan`` for the plot.
 * The layout plots each position setpoint (POSITION_TARGET_LOCAL_NED) beside the estimate.
 """
-
 from __future__ import annotations
 
 import functools

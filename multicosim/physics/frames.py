@@ -2,9 +2,9 @@
 
 MuJoCo's world frame is east-north-up and a body's frame forward-left-up; autopilots (PX4,
 ArduPilot) use north-east-down and forward-right-down. :func:`ned_state` turns a body's
-MuJoCo state into the autopilots' true state once per period, and :func:`truth` wraps it as
-the world's :class:`~multicosim.px4.hil.Truth` message (the per-step state an external
-autopilot's simulator interface reads). Scalar math only: this runs every physics period.
+MuJoCo state into the autopilots' true state once per period (``multicosim.mavlink.hil.truth``
+wraps it as the message an external autopilot's simulator interface reads). Scalar math
+only: this runs every physics period.
 """
 
 from __future__ import annotations

@@ -1,20 +1,6 @@
-"""What a trace of the PX4 scenario shows, in channels Foxglove understands.
-
-* The MAVLink links between ground station and autopilot (``px4/mavlink/up`` and ``down``),
-  and the HIL frames between world and autopilot where they travel as MAVLink, are decoded
-  into one channel per message type (``px4/mavlink/down/ATTITUDE``, ...), each with a JSON
-  schema generated from pymavlink's message definitions. The links also go to a ``.tlog``.
-* ``px4/log``: the autopilot's STATUSTEXT as ``foxglove.Log``.
-* ``px4/pose``: the autopilot's attitude (ATTITUDE_QUATERNION, else ATTITUDE) at its estimated
-  position, as ``foxglove.PoseInFrame`` in an east-north-up ``map`` frame (FLU body).
-* ``px4/location/estimate`` (GLOBAL_POSITION_INT) and ``px4/location/truth`` (the world's
-  truth): two ``foxglove.LocationFix`` tracks; ``mcs/path/estimate`` and ``mcs/path/truth``
-  the same in metres from home, for the plot.
-* ``px4/mission``: the uploaded mission (MISSION_ITEM_INT) as ``foxglove.GeoJSON`` for the
-  Map panel, and ``mcs/plan`` for the plot.
-* The layout plots each position setpoint (POSITION_TARGET_LOCAL_NED) beside the estimate.
+"""The PX4 scenario's trace options: which of its topics carry HIL messages, for
+:func:`multicosim.mavlink.trace.mission_trace` (the channels are described there).
 """
-
 from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any

@@ -1,4 +1,4 @@
-"""The component side: step contexts, topics, the firmware decorator and its server.
+"""What a component sees of its simulation: step contexts, topics, simulated time.
 
 A component is written once against :class:`StepContext` (publish, subscribe, simulated time,
 seeded randomness) and runs unchanged in-process, in a local process or in a container:
@@ -12,7 +12,6 @@ Two kinds of component exist:
   message sent to its node; it advances the clock itself with ``ctx.step()`` and its return
   value is the reply.
 """
-
 from __future__ import annotations
 
 import hashlib

@@ -1,18 +1,13 @@
-"""The component side: step contexts, topics, the firmware decorator and its server.
+"""Firmware and component programs: the ``@firmware`` decorator and the programs that run
+components outside the simulation's process.
 
-A component is written once against :class:`StepContext` (publish, subscribe, simulated time,
-seeded randomness) and runs unchanged in-process, in a local process or in a container:
-only the link to the scheduler differs (a direct call or a ZeroMQ socket).
-
-Two kinds of component exist:
-
-* a **participant** (the physics world, an injector): an object with ``period``, ``setup(ctx)``
-  and ``step(ctx)``; the scheduler calls ``step`` every ``period`` of simulated time;
-* a **firmware** (a controller): a function decorated with :func:`firmware`, called with each
-  message sent to its node; it advances the clock itself with ``ctx.step()`` and its return
-  value is the reply.
+* :class:`Firmware` / :func:`firmware`: a handler called with each message sent to its node,
+  advancing the simulated clock itself, whose return value is the reply;
+* :func:`serve` (``multicosim serve MODULE:FIRMWARE --port N``) answers calls to a firmware;
+  :func:`run_participant` (``multicosim participant MODULE:FACTORY``) steps a participant;
+* :func:`load_target` and :func:`build_from_config` find a component by ``module:name`` and
+  build it from its JSON configuration.
 """
-
 from __future__ import annotations
 
 import importlib

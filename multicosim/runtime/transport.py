@@ -1,18 +1,10 @@
-"""The component side: step contexts, topics, the firmware decorator and its server.
+"""The component side of the lockstep: how a component's steps reach the scheduler.
 
-A component is written once against :class:`StepContext` (publish, subscribe, simulated time,
-seeded randomness) and runs unchanged in-process, in a local process or in a container:
-only the link to the scheduler differs (a direct call or a ZeroMQ socket).
-
-Two kinds of component exist:
-
-* a **participant** (the physics world, an injector): an object with ``period``, ``setup(ctx)``
-  and ``step(ctx)``; the scheduler calls ``step`` every ``period`` of simulated time;
-* a **firmware** (a controller): a function decorated with :func:`firmware`, called with each
-  message sent to its node; it advances the clock itself with ``ctx.step()`` and its return
-  value is the reply.
+A component in its own process talks to the coordinator over ZeroMQ (:class:`Connection`,
+:class:`RemoteDriver`), watching its host so that it dies with it (:class:`HostWatch`); one in
+the simulation's process is stepped by direct calls (:class:`LocalDriver`,
+:class:`LocalParticipantLink`). Either way the component sees the same :class:`StepContext`.
 """
-
 from __future__ import annotations
 
 import logging

@@ -29,7 +29,7 @@ MANUAL_MODES = (Mode.MANUAL, Mode.ALTCTL, Mode.POSCTL, Mode.ACRO, Mode.STABILIZE
 
 
 class Commander(State):
-    """Arming, modes and failsafes (a part of :class:`~._autopilot.Autopilot`)."""
+    """Arming, modes and failsafes (a part of :class:`~.firmware.Autopilot`)."""
 
     def arm_check(self) -> str | None:
         """Why arming would be refused now, or None (PX4's preflight checks, simplified)."""

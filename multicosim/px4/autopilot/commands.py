@@ -49,7 +49,7 @@ ONE_SHOT = {"AUTOPILOT_VERSION", "PROTOCOL_VERSION", "GPS_GLOBAL_ORIGIN", "FLIGH
 
 
 class Commands(State):
-    """The command protocol (a part of :class:`~._autopilot.Autopilot`)."""
+    """The command protocol (a part of :class:`~.firmware.Autopilot`)."""
 
     def _ack(self, command: int, result: int) -> None:
         src_sys, src_comp = self._gcs

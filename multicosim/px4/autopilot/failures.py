@@ -42,7 +42,7 @@ class Fault:
 
 
 class Failures(State):
-    """Sensor intake with injected failures (a part of :class:`~._autopilot.Autopilot`)."""
+    """Sensor intake with injected failures (a part of :class:`~.firmware.Autopilot`)."""
 
     failures: dict[str, Fault]
     _last_imu_us: int | None

@@ -4,7 +4,7 @@ Takeoff, mission items (acceptance radii, hold times, DO_CHANGE_SPEED, DO_JUMP),
 return to launch (to the closest of home and the rally points), hold and reposition,
 follow target, offboard setpoints (position, velocity, attitude) and the manual modes
 (POSCTL holds position when the sticks are centred, ALTCTL and the others only height).
-The controller (:mod:`._control`) turns the result into motor outputs.
+The controller (:mod:`.control`) turns the result into motor outputs.
 """
 
 from __future__ import annotations
@@ -44,7 +44,7 @@ Target = tuple[Vec3, float | None, bool, tuple[float, float] | None]
 
 
 class Navigator(State):
-    """Setpoints per mode and the control output (a part of :class:`~._autopilot.Autopilot`)."""
+    """Setpoints per mode and the control output (a part of :class:`~.firmware.Autopilot`)."""
 
     def _home_d(self) -> float:
         return self.home[2] if self.home is not None else self._ground_d

@@ -1,10 +1,10 @@
 """The state our autopilot's parts share.
 
-The autopilot (:mod:`._autopilot`) is one participant assembled from parts, one concern
-per module: the flight logic (:mod:`._commander`, :mod:`._navigator`, the controller in
-:mod:`._control`, the estimator in :mod:`._estimator`, sensor failures in
-:mod:`._failures`) and the MAVLink server (:mod:`._server` for the link itself,
-:mod:`._streams`, :mod:`._commands`, :mod:`._paramserver`, :mod:`._missions`). Each part is a
+The autopilot (:mod:`.firmware`) is one participant assembled from parts, one concern
+per module: the flight logic (:mod:`.commander`, :mod:`.navigator`, the controller in
+:mod:`.control`, the estimator in :mod:`.estimator`, sensor failures in
+:mod:`.failures`) and the MAVLink server (:mod:`.offboard` for the link itself,
+:mod:`.streams`, :mod:`.commands`, :mod:`.paramserver`, :mod:`.missions`). Each part is a
 mixin over :class:`State`, which declares what they share.
 """
 

@@ -97,7 +97,7 @@ def _fields(name: str) -> list[tuple[str, int, bool]]:
 
 
 class Streams(State):
-    """Scheduled telemetry (a part of :class:`~._autopilot.Autopilot`)."""
+    """Scheduled telemetry (a part of :class:`~.firmware.Autopilot`)."""
 
     _streams: dict[str, list[float]]
     _stream_defaults: dict[str, float | None]
