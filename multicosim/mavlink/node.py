@@ -3,6 +3,7 @@
 PX4's and ArduPilot's scenarios both give :class:`MissionNode` as their firmware: the ground
 station (:mod:`.gcs`) in this process, the autopilot wherever it runs.
 """
+
 from __future__ import annotations
 
 import sys

@@ -8,6 +8,7 @@ Used by :mod:`multicosim.px4.sitl` and :mod:`multicosim.ardupilot.launch`:
 * :func:`copy_out`: flight logs out of a container; :func:`udp_free`,
   :func:`check_first_instance`, :func:`param_value`: instance claims and parameter files.
 """
+
 from __future__ import annotations
 
 import contextlib

@@ -15,6 +15,7 @@
   Map panel, and ``mcs/plan`` for the plot.
 * The layout plots each position setpoint (POSITION_TARGET_LOCAL_NED) beside the estimate.
 """
+
 from __future__ import annotations
 
 import functools

@@ -1,10 +1,10 @@
 """Real PX4 SITL as the firmware of the PX4 scenario: the top of the fidelity ladder.
 
 PX4's SITL build (``px4_sitl_default``) flies our MuJoCo quadrotor the way it flies Gazebo's:
-its ``simulator_mavlink`` module connects to :class:`~multicosim.mavlink.hil_bridge.HilTcpBridge` (TCP
-4560 + instance, lockstep), and its MAVLink API link is carried to the same ground station
-that drives our built-in autopilot (:mod:`multicosim.mavlink.gcs`), so ``simulation.firmware.send`` flies a
-mission on either.
+its ``simulator_mavlink`` module connects to
+:class:`~multicosim.mavlink.hil_bridge.HilTcpBridge` (TCP 4560 + instance, lockstep), and its
+MAVLink API link is carried to the same ground station that drives our built-in autopilot
+(:mod:`multicosim.mavlink.gcs`), so ``simulation.firmware.send`` flies a mission on either.
 
 Where PX4 comes from is a :class:`SITL`: a ``px4`` binary with its ``etc`` ROMFS beside it
 (``../shared/px4-sitl`` or a ``build/px4_sitl_default`` tree) run as a local process, or an

@@ -1,6 +1,7 @@
 """The PX4 scenario's trace options: which of its topics carry HIL messages, for
 :func:`multicosim.mavlink.trace.mission_trace` (the channels are described there).
 """
+
 from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any

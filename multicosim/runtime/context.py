@@ -12,6 +12,7 @@ Two kinds of component exist:
   message sent to its node; it advances the clock itself with ``ctx.step()`` and its return
   value is the reply.
 """
+
 from __future__ import annotations
 
 import hashlib

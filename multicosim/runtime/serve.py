@@ -8,6 +8,7 @@ components outside the simulation's process.
 * :func:`load_target` and :func:`build_from_config` find a component by ``module:name`` and
   build it from its JSON configuration.
 """
+
 from __future__ import annotations
 
 import importlib

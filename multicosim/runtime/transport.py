@@ -5,6 +5,7 @@ A component in its own process talks to the coordinator over ZeroMQ (:class:`Con
 the simulation's process is stepped by direct calls (:class:`LocalDriver`,
 :class:`LocalParticipantLink`). Either way the component sees the same :class:`StepContext`.
 """
+
 from __future__ import annotations
 
 import logging
