@@ -161,7 +161,7 @@ def test_psy_taliro_listing_runs() -> None:
 
 
 def test_search_listing_runs() -> None:
-    result = _run("from multicosim.search.falsify import Integer, falsify")["result"]
+    result = _run("from multicosim.falsify import Integer, falsify")["result"]
     assert result.falsified, result.summary()
     cx = result.counterexample
     assert cx.failing_levels == ("low", "medium")  # found cheaply, confirmed by physics
