@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING, Any
 
 import pytest
 
-from .plugin import tracked
+from .simulations import tracked
 
 if TYPE_CHECKING:
     from multicosim.ardupilot import ArduPilotSimulation, Copter, Rover

@@ -33,7 +33,7 @@ import pytest
 
 from multicosim.core.fidelity import check_fidelity
 
-from .plugin import tracked
+from .simulations import tracked
 
 if TYPE_CHECKING:
     from multicosim.px4 import PX4, SITL, MuJoCo, PX4Simulation

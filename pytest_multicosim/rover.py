@@ -25,7 +25,7 @@ import pytest
 
 from multicosim.core.fidelity import check_fidelity
 
-from .plugin import tracked
+from .simulations import tracked
 
 if TYPE_CHECKING:
     from multicosim.physics import WorldConfig

@@ -14,7 +14,7 @@ from typing import Any
 import pytest
 
 import multicosim as mcs
-from pytest_multicosim.plugin import require_docker
+from pytest_multicosim.docker import require_docker
 from pytest_multicosim.px4 import RealPX4
 
 README = Path(__file__).resolve().parents[1] / "README.md"

@@ -12,15 +12,15 @@ from typing import TYPE_CHECKING
 from ..core.deps import lazy_exports
 
 _LAZY = {
-    "AttachedComponent": "._components",
-    "AttachedNode": "._components",
-    "ContainerComponent": "._components",
-    "ContainerEnvironment": "._components",
-    "ContainerFirmwareNode": "._components",
-    "ContainerLimits": "._components",
-    "ContainerNode": "._components",
-    "ContainerFirmwareComponent": "._components",
-    "FirmwareComponent": "._components:ContainerFirmwareComponent",  # the paper's name
+    "AttachedComponent": "._attached",
+    "AttachedNode": "._attached",
+    "ContainerComponent": "._component",
+    "ContainerEnvironment": ".environment",
+    "ContainerFirmwareNode": "._firmware",
+    "ContainerLimits": "._limits",
+    "ContainerNode": ".node",
+    "ContainerFirmwareComponent": "._firmware",
+    "FirmwareComponent": "._firmware:ContainerFirmwareComponent",  # the paper's name
     "ContainerSimulation": "._simulator",
     "ContainerSimulator": "._simulator",
     "EngineUnavailableError": "..core.errors",
@@ -65,15 +65,12 @@ __all__ = [
 if TYPE_CHECKING:
     from ..core.errors import EngineUnavailableError as EngineUnavailableError
     from ..core.errors import ImageMissingError as ImageMissingError
-    from ._components import AttachedComponent as AttachedComponent
-    from ._components import AttachedNode as AttachedNode
-    from ._components import ContainerComponent as ContainerComponent
-    from ._components import ContainerEnvironment as ContainerEnvironment
-    from ._components import ContainerFirmwareComponent as ContainerFirmwareComponent
-    from ._components import ContainerFirmwareComponent as FirmwareComponent
-    from ._components import ContainerFirmwareNode as ContainerFirmwareNode
-    from ._components import ContainerLimits as ContainerLimits
-    from ._components import ContainerNode as ContainerNode
+    from ._attached import AttachedComponent as AttachedComponent
+    from ._attached import AttachedNode as AttachedNode
+    from ._component import ContainerComponent as ContainerComponent
+    from ._firmware import ContainerFirmwareComponent as ContainerFirmwareComponent
+    from ._firmware import ContainerFirmwareComponent as FirmwareComponent
+    from ._firmware import ContainerFirmwareNode as ContainerFirmwareNode
     from ._images import ARDUPILOT_IMAGE as ARDUPILOT_IMAGE
     from ._images import BASE_IMAGE as BASE_IMAGE
     from ._images import PX4_IMAGE as PX4_IMAGE
@@ -81,11 +78,14 @@ if TYPE_CHECKING:
     from ._images import build as build_images
     from ._images import build_ardupilot as build_ardupilot
     from ._images import build_px4 as build_px4
+    from ._limits import ContainerLimits as ContainerLimits
     from ._simulator import ContainerSimulation as ContainerSimulation
     from ._simulator import ContainerSimulator as ContainerSimulator
     from ._sweep import SweepReport as SweepReport
     from ._sweep import engine_available as engine_available
     from ._sweep import sweep as sweep
+    from .environment import ContainerEnvironment as ContainerEnvironment
+    from .node import ContainerNode as ContainerNode
 
 
 __getattr__, __dir__ = lazy_exports(__name__, _LAZY, __all__)

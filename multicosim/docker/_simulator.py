@@ -11,8 +11,9 @@ from ..core.errors import MulticosimError
 from ..core.interfaces import Node
 from ..local.rundirs import remove_tree
 from ..local.simulators import LocalSimulatorBase, ProcessSimulation, required_images
-from ._components import ContainerEnvironment, ContainerNode
 from .engine import LABEL_RUN, APIError, NotFound, client, labels, require_image
+from .environment import ContainerEnvironment
+from .node import ContainerNode
 
 __all__ = ["ContainerSimulation", "ContainerSimulator"]
 
@@ -126,7 +127,7 @@ def _collect(node: object, found: list[ContainerNode]) -> None:
 
 
 def _remove_network(api: Any, run_id: str) -> None:
-    from ._components import _remove_container
+    from .node import _remove_container
 
     # A container whose stop failed would keep the network busy: remove whatever of this run
     # is left first, so that the network (an address pool slot) is always given back.

@@ -56,7 +56,6 @@ def sweep(
     reason = engine_available()
     if reason is not None:
         return SweepReport(skipped=reason)
-    from ._components import _remove_container
     from .engine import (
         LABEL_OWNER,
         LABEL_RUN,
@@ -67,6 +66,7 @@ def sweep(
         owner_alive,
         session_id,
     )
+    from .node import _remove_container
 
     api = client().api
     mine = session_id()

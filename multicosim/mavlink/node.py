@@ -50,10 +50,10 @@ class MissionNode:
         """The autopilot's container node when it runs in one (the docker backend)."""
         # Also how a ContainerSimulation finds it, to signal it at stop with the others.
         # Without the docker backend loaded there is no container (and no SDK to import).
-        components = sys.modules.get("multicosim.docker._components")
+        docker_node = sys.modules.get("multicosim.docker.node")
         # Real firmware's nodes keep its process or container as ``process``.
         node = getattr(self._autopilot, "process", self._autopilot)
-        if components is not None and isinstance(node, components.ContainerNode):
+        if docker_node is not None and isinstance(node, docker_node.ContainerNode):
             return cast("ContainerNode", node)
         return None
 

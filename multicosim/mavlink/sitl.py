@@ -111,7 +111,7 @@ def copy_out(container: Any, path: str, into: Path, suffix: str = ".ulg") -> lis
 
 def is_container_environment(environment: Any) -> bool:
     # Without the docker backend loaded there is no container environment (and no SDK).
-    docker = sys.modules.get("multicosim.docker._components")
+    docker = sys.modules.get("multicosim.docker.environment")
     return docker is not None and isinstance(environment, docker.ContainerEnvironment)
 
 

@@ -12,7 +12,7 @@ from typing import Any
 
 import pytest
 
-from pytest_multicosim.plugin import docker_unavailable, require_docker
+from pytest_multicosim.docker import docker_unavailable, require_docker
 
 
 @pytest.fixture(scope="session")

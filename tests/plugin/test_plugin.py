@@ -14,8 +14,8 @@ import pytest
 from mcs_programs import process_gone
 from plugin_helpers import write_ini
 
-from multicosim.core.fidelity import FIDELITIES
-from pytest_multicosim.plugin import BACKENDS, KEEP_TRACES
+from multicosim.core.fidelity import BACKENDS, FIDELITIES
+from pytest_multicosim.options import KEEP_TRACES
 
 # -- options and their ini twins ------------------------------------------------------------
 

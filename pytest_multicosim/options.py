@@ -1,0 +1,237 @@
+"""The ``--mcs-*`` options, their ini twins, and the validated :class:`Settings` of a run.
+
+Every option lives in the ``multicosim`` group and has an ini twin of the same name
+(``mcs_fidelity = low,medium`` in ``pytest.ini``); the command line wins over the ini file.
+A bad value raises ``pytest.UsageError`` naming where it came from and what is allowed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib.util
+import os
+import tempfile
+from pathlib import Path
+
+import pytest
+
+from multicosim.core.fidelity import BACKENDS, FIDELITIES
+
+__all__ = [
+    "KEEP_TRACES",
+    "OPTION_DESTS",
+    "Settings",
+    "add_options",
+    "given",
+    "parse_fidelity",
+    "read_settings",
+    "settings_key",
+]
+
+KEEP_TRACES = ("failed", "all", "none")
+_ARTIFACTS_DEFAULT = "mcs-artifacts"
+
+# Every option of the group that makes the plugin act for every test of the session when
+# given on the command line (or in addopts).
+OPTION_DESTS = (
+    "mcs_fidelity",
+    "mcs_backend",
+    "mcs_seed",
+    "mcs_artifacts",
+    "mcs_keep_traces",
+    "mcs_px4_image",
+    "mcs_px4_binary",
+    "mcs_ray",
+)
+
+
+@dataclasses.dataclass(frozen=True)
+class Settings:
+    """The validated multicosim options of a pytest run."""
+
+    fidelity: tuple[str, ...]
+    backend: str
+    seed: int
+    artifacts: Path
+    keep_traces: str
+    ray: str | None = None
+
+    def replay_args(self, fidelity: str | None) -> str:
+        """Command-line options that replay a test with the same seed and fidelity."""
+        level = fidelity or ",".join(self.fidelity)
+        return f"--mcs-seed={self.seed} --mcs-fidelity={level} --mcs-backend={self.backend}"
+
+
+settings_key = pytest.StashKey[Settings]()
+"""Where ``config.stash`` keeps the run's :class:`Settings`."""
+
+
+def add_options(parser: pytest.Parser) -> None:
+    """Add the ``multicosim`` option group and the options' ini twins to ``parser``."""
+    group = parser.getgroup("multicosim", "multicosim co-simulation")
+    group.addoption(
+        "--mcs-fidelity",
+        dest="mcs_fidelity",
+        default=None,
+        help="fidelity level(s) to run: low, medium, high, or a comma list (default: low)",
+    )
+    group.addoption(
+        "--mcs-backend",
+        dest="mcs_backend",
+        default=None,
+        help="where components run: process (default) or docker",
+    )
+    group.addoption(
+        "--mcs-seed",
+        dest="mcs_seed",
+        default=None,
+        help="seed for every random source of the simulations (default: 0)",
+    )
+    group.addoption(
+        "--mcs-artifacts",
+        dest="mcs_artifacts",
+        default=None,
+        help="directory for traces and logs of failing tests (default: mcs-artifacts)",
+    )
+    group.addoption(
+        "--mcs-keep-traces",
+        dest="mcs_keep_traces",
+        default=None,
+        help="which tests keep their traces: failed (default), all or none",
+    )
+    group.addoption(
+        "--mcs-px4-image",
+        dest="mcs_px4_image",
+        default=None,
+        help="fly real PX4 too: a PX4 SITL image (multicosim images build --px4-dir DIR; "
+        "env MCS_PX4_IMAGE)",
+    )
+    group.addoption(
+        "--mcs-px4-binary",
+        dest="mcs_px4_binary",
+        default=None,
+        help="fly real PX4 too: its SITL binary (bin/px4 with etc/ beside bin/, e.g. "
+        "build/px4_sitl_default/bin/px4; env MCS_PX4_BINARY)",
+    )
+    group.addoption(
+        "--mcs-ardupilot-dir",
+        dest="mcs_ardupilot_dir",
+        default=None,
+        help="fly real ArduPilot on the ArduPilot fixtures: its SITL directory (bin/arducopter, "
+        "bin/ardurover, params/; env MCS_ARDUPILOT_DIR)",
+    )
+    group.addoption(
+        "--mcs-ray",
+        dest="mcs_ray",
+        default=None,
+        help="run campaigns (mcs_campaign_executor) on the Ray cluster at ADDRESS "
+        "(auto, local, ray://head:10001, ...; default: the local process pool)",
+    )
+    parser.addini("mcs_fidelity", "default for --mcs-fidelity", default="low")
+    parser.addini("mcs_backend", "default for --mcs-backend", default="process")
+    parser.addini("mcs_seed", "default for --mcs-seed", default="0")
+    parser.addini("mcs_artifacts", "default for --mcs-artifacts", default=_ARTIFACTS_DEFAULT)
+    parser.addini("mcs_keep_traces", "default for --mcs-keep-traces", default="failed")
+    parser.addini("mcs_px4_image", "default for --mcs-px4-image", default="")
+    parser.addini("mcs_px4_binary", "default for --mcs-px4-binary", default="")
+    parser.addini("mcs_ardupilot_dir", "default for --mcs-ardupilot-dir", default="")
+    parser.addini("mcs_ray", "default for --mcs-ray", default="")
+
+
+def given(config: pytest.Config) -> bool:
+    """Whether any option of the group that widens the plugin's reach was given."""
+    return any(config.getoption(dest) is not None for dest in OPTION_DESTS)
+
+
+def _value(config: pytest.Config, name: str) -> tuple[str, str]:
+    """The option's value (the command line wins over the ini file) and where it came from."""
+    option = config.getoption(name)
+    if option is not None:
+        return str(option).strip(), "--" + name.replace("_", "-")
+    ini = config.inipath.name if config.inipath is not None else "the ini file"
+    return str(config.getini(name)).strip(), f"{name} (in {ini})"
+
+
+def parse_fidelity(text: str, source: str = "--mcs-fidelity") -> tuple[str, ...]:
+    """Parse a comma list of fidelity levels; raise UsageError naming the allowed values."""
+    levels = tuple(part.strip() for part in text.split(",") if part.strip())
+    bad = [level for level in levels if level not in FIDELITIES]
+    if not levels or bad:
+        raise pytest.UsageError(
+            f"{source}: {text!r} names no known fidelity level "
+            f"({', '.join(map(repr, bad)) or 'none given'}); "
+            f"allowed: {', '.join(FIDELITIES)} (or a comma list of them)"
+        )
+    return tuple(dict.fromkeys(levels))
+
+
+def _unwritable(path: Path) -> str | None:
+    """Why ``path`` cannot be (or become) a writable directory, or None if it can.
+
+    Probes by creating (and removing) a directory where it would be written, which also
+    catches read-only file systems and what permission bits do not show.
+    """
+    existing = path
+    while not existing.exists() and existing.parent != existing:
+        existing = existing.parent
+    if not existing.is_dir():
+        return f"{existing} is not a directory"
+    try:
+        probe = tempfile.mkdtemp(prefix=".mcs-probe-", dir=existing)
+    except OSError as exc:
+        return f"cannot write in {existing} ({exc.strerror or exc})"
+    os.rmdir(probe)
+    return None
+
+
+def _artifacts(config: pytest.Config) -> Path:
+    text, source = _value(config, "mcs_artifacts")
+    artifacts = Path(text)
+    if not artifacts.is_absolute():
+        # Like pytest's own paths: relative to where pytest was invoked on the command line,
+        # relative to the ini file's directory in the ini file.
+        if source.startswith("--"):
+            base = config.invocation_params.dir
+        else:
+            base = config.inipath.parent if config.inipath is not None else config.rootpath
+        artifacts = base / artifacts
+    if source.startswith("--") or text != _ARTIFACTS_DEFAULT:
+        # Given on purpose: refuse now what would silently lose traces and logs later.
+        problem = _unwritable(artifacts)
+        if problem is not None:
+            raise pytest.UsageError(
+                f"{source}: {text!r} cannot hold traces and logs: {problem}; "
+                "allowed: a directory this user can write, or one that can be created"
+            )
+    return artifacts
+
+
+def read_settings(config: pytest.Config) -> Settings:
+    """The run's settings from its options and ini file; raise UsageError on a bad value."""
+    fidelity = parse_fidelity(*_value(config, "mcs_fidelity"))
+    backend, source = _value(config, "mcs_backend")
+    if backend not in BACKENDS:
+        raise pytest.UsageError(
+            f"{source}: {backend!r} is not a backend; allowed: {', '.join(BACKENDS)}"
+        )
+    seed_text, source = _value(config, "mcs_seed")
+    try:
+        seed = int(seed_text)
+        if seed < 0:
+            raise ValueError
+    except ValueError:
+        raise pytest.UsageError(
+            f"{source}: {seed_text!r} is not a seed; allowed: a non-negative integer"
+        ) from None
+    keep, source = _value(config, "mcs_keep_traces")
+    if keep not in KEEP_TRACES:
+        raise pytest.UsageError(
+            f"{source}: {keep!r} is not a choice; allowed: {', '.join(KEEP_TRACES)}"
+        )
+    artifacts = _artifacts(config)
+    ray, source = _value(config, "mcs_ray")
+    if ray and importlib.util.find_spec("ray") is None:
+        raise pytest.UsageError(
+            f"{source}: {ray!r} needs Ray, which is not installed: pip install 'multicosim[ray]'"
+        )
+    return Settings(fidelity, backend, seed, artifacts, keep, ray or None)
