@@ -6,6 +6,7 @@ import contextlib
 import fnmatch
 import io
 import itertools
+import os
 import re
 import sys
 from pathlib import Path
@@ -18,6 +19,7 @@ from pytest_multicosim.docker import require_docker
 from pytest_multicosim.px4 import RealPX4
 
 README = Path(__file__).resolve().parents[1] / "README.md"
+CARTPOLE = Path(__file__).resolve().parent / "physics" / "cartpole.py"
 
 
 def _block(containing: str) -> str:
@@ -149,6 +151,21 @@ def test_ardupilot_listing_runs(ardupilot_dir: str) -> None:
 def test_rover_listings_run() -> None:
     namespace = _run("rover.Rover(fidelity=")
     assert namespace["trajectory"].completed  # the hand-built medium-fidelity run
+
+
+def test_own_vehicle_listings_run(monkeypatch: pytest.MonkeyPatch) -> None:
+    # The README's module is the test suite's cart-pole, which its own tests check further.
+    assert _block('"""cartpole.py: ') == CARTPOLE.read_text()
+    here = str(CARTPOLE.parent)
+    monkeypatch.syspath_prepend(here)
+    monkeypatch.setenv(
+        "PYTHONPATH", os.pathsep.join(p for p in (here, os.environ.get("PYTHONPATH")) if p)
+    )
+    namespace = _run("replytype=cartpole.State")
+    assert namespace["state"].x == pytest.approx(0.5, abs=0.01)
+    namespace = _run('sensor_topics={"state"', namespace)
+    # The pole stands upright; the controller rests where 10 (x - 0.5) + 65 * 0.02 = 0.
+    assert namespace["state"].x == pytest.approx(0.5 - 65 / 10 * 0.02, abs=0.01)
 
 
 def test_psy_taliro_listing_runs() -> None:

@@ -1,9 +1,41 @@
-"""The MuJoCo physics world: configuration, the world participant and shipped vehicles.
+"""The MuJoCo physics world: its configuration, the world participant, the Vehicle protocol.
 
 ``WorldConfig`` plays the role of the paper's ``Gazebo(backend=ODE(...), step_size=...)``.
 A :class:`World` is a participant that steps MuJoCo in lockstep with the simulation and
-hands the vehicle-specific part (MJCF model, actuator topics, sensors) to a
-:class:`Vehicle`; :func:`rover_world` builds the rover scenario's world.
+hands the vehicle-specific part to a :class:`Vehicle`: any object with ``sensors`` (each
+sensor's name and default topic, which ``WorldConfig.sensor_topics`` may move), and
+``load_model()``, ``setup(physics, ctx, topics)``, ``actuate(physics, ctx)`` and
+``sense(physics, ctx)``. The world knows no vehicle: the shipped ones live in their own
+packages (``multicosim.rover.body``, ``multicosim.mavlink.quadrotor``), and a user's own
+is a class in the user's own module::
+
+    class Pendulum:  # a multicosim.physics.Vehicle
+        def __init__(self) -> None:
+            self.sensors = {"angle": "pendulum/angle"}
+
+        def load_model(self) -> Any:
+            return mujoco.MjModel.from_xml_string(MJCF)
+
+        def setup(self, physics: Physics, ctx: StepContext, topics: Mapping[str, str]) -> None:
+            self.topic = topics["angle"]
+            self.torque = ctx.subscribe("pendulum/torque", Torque)
+            physics.data.qpos[0] = 0.5  # the initial state; the first readings are of it
+
+        def actuate(self, physics: Physics, ctx: StepContext) -> None:
+            if self.torque.latest is not None:
+                physics.data.ctrl[0] = self.torque.latest.value
+
+        def sense(self, physics: Physics, ctx: StepContext) -> None:
+            ctx.publish(self.topic, Angle(value=float(physics.sensor("angle")[0])))
+
+
+    def world(config: WorldConfig) -> World:
+        return World(config, Pendulum())
+
+``python -m multicosim participant mymodule:world --config JSON`` runs that world as a
+process (``multicosim.local.participant_command("mymodule:world", config)`` builds the
+command), ``mcs.InProcessComponent(lambda: world(config), name="world")`` in the
+simulation's process.
 
 The configuration and coordinate helpers import without MuJoCo; the world itself needs it
 (``pip install 'multicosim[mujoco]'``) and raises DependencyMissingError otherwise.

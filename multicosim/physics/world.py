@@ -84,7 +84,7 @@ class Physics:
         self.data = mujoco.MjData(model)
         self._steps = 0
         self._sensors: dict[str, slice] = {}
-        mujoco.mj_forward(model, self.data)
+        self.forward()
 
     @classmethod
     def from_xml_path(cls, path: str | os.PathLike[str], config: WorldConfig) -> Physics:
@@ -104,10 +104,14 @@ class Physics:
             mujoco.mj_step(self.model, self.data, n)
             # mj_step leaves sensors computed for the state before its last step; bring
             # them up to the state that is about to be published.
-            mujoco.mj_forward(self.model, self.data)
+            self.forward()
             self._steps = target
             self._check_divergence()
         return max(n, 0)
+
+    def forward(self) -> None:
+        """Recompute what follows from the state (positions, sensors) after it was set by hand."""
+        mujoco.mj_forward(self.model, self.data)
 
     def _check_divergence(self) -> None:
         # On a NaN or huge value MuJoCo warns and silently resets the state; a run that
@@ -160,17 +164,25 @@ class Vehicle(Protocol):
     ``sensors`` maps each sensor name to its default topic; a ``WorldConfig.sensor_topics``
     entry moves it to another topic. The world calls ``load_model`` and ``setup`` once, then
     at every period ``actuate`` (apply the latest commands to ``data.ctrl``), integrates, and
-    ``sense`` (publish what the sensors read now).
+    ``sense`` (publish what the sensors read now). Any class with these members is one: the
+    shipped vehicles and a user's own alike (see the package docstring for an example).
     """
 
-    sensors: Mapping[str, str]
+    @property
+    def sensors(self) -> Mapping[str, str]:
+        """Each sensor's name and default topic (a plain dict attribute will do)."""
+        ...
 
     def load_model(self) -> Any:
         """The vehicle's ``MjModel``."""
         ...
 
     def setup(self, physics: Physics, ctx: StepContext, topics: Mapping[str, str]) -> None:
-        """Subscribe to command topics; ``topics`` maps sensor names to their topics."""
+        """Subscribe to command topics; ``topics`` maps sensor names to their topics.
+
+        It may also set the initial state (``physics.data.qpos``, ``qvel``): the world then
+        computes the sensors for it before the first reading.
+        """
         ...
 
     def actuate(self, physics: Physics, ctx: StepContext) -> None:
@@ -204,9 +216,12 @@ class World:
         return {name: self.config.topic(name, t) for name, t in self.vehicle.sensors.items()}
 
     def setup(self, ctx: StepContext) -> None:
-        """Load the model and let the vehicle subscribe to its commands."""
+        """Load the model, let the vehicle subscribe (and set its initial state)."""
         self.physics = Physics(self.vehicle.load_model(), self.config)
         self.vehicle.setup(self.physics, ctx, self.topics)
+        # The first readings are published before any step: they must describe the state
+        # the vehicle may have just set.
+        self.physics.forward()
 
     def step(self, ctx: StepContext) -> None:
         """Apply commands, integrate up to ``ctx.time``, publish sensors."""
