@@ -93,8 +93,10 @@ def test_no_package_imports_another_packages_private_parts() -> None:
             if target is None or _owner(target) == _owner(module):
                 continue
             private_module = any(p.startswith("_") and p != "__init__" for p in name.split("."))
-            private_name = attribute is not None and attribute.startswith("_")
-            if private_module or (private_name and not attribute.startswith("__")):
+            private_name = (attribute or "").startswith("_") and not (attribute or "").startswith(
+                "__"
+            )
+            if private_module or private_name:
                 shown = f"{name}.{attribute}" if attribute else name
                 offences.append(f"{MODULES[module].relative_to(ROOT)}:{line} imports {shown}")
     assert not offences, "imports of another package's private parts:\n" + "\n".join(offences)
