@@ -135,13 +135,19 @@ _MODULES: dict[str, str] = {}
 
 
 def register(
-    vehicle: str, sensors: Sequence[Sensor], aliases: Mapping[str, str] | None = None
+    vehicle: str,
+    sensors: Sequence[Sensor],
+    aliases: Mapping[str, str] | None = None,
+    *,
+    module: str | None = None,
 ) -> None:
     """Make ``sensors`` of ``vehicle`` injectable (``aliases``: other names users call them).
 
-    The vehicles register theirs when imported; a package can also name its registering
-    module in the ``multicosim.sensors`` entry-point group, so that the injector finds it by
-    the vehicle's name alone.
+    ``module`` is the module whose import registers them (by default the module of the first
+    sensor's ``apply``): an injector running in another process imports it. The vehicles
+    register theirs when imported; a package can also name its registering module in the
+    ``multicosim.sensors`` entry-point group, so that the injector finds it by the vehicle's
+    name alone.
     """
     if not isinstance(vehicle, str) or not vehicle:
         raise ConfigurationError("vehicle", vehicle, "a non-empty vehicle name")
@@ -151,7 +157,9 @@ def register(
     _SENSORS[vehicle] = {spec.name: spec for spec in sensors}
     SENSORS[vehicle] = tuple(spec.name for spec in sensors)
     ALIASES[vehicle] = dict(aliases or {})
-    _MODULES[vehicle] = sensors[0].apply.__module__ if sensors else ""
+    _MODULES[vehicle] = (
+        module if module is not None else (sensors[0].apply.__module__ if sensors else "")
+    )
 
 
 def vehicles() -> tuple[str, ...]:

@@ -429,3 +429,35 @@ def test_simulator_places_and_replaces_components_before_start() -> None:
         assert simulation.get(last).participant is sink
         with pytest.raises(mcs.MulticosimError, match="after start"):
             simulator.replace(last, mcs.InProcessComponent(Sink(), name="sink"))
+
+
+class _Depth(msgspec.Struct, frozen=True):
+    time: float
+    depth: float
+
+
+def _deeper(msg: Any, quantity: str, delta: Any) -> Any:
+    return msgspec.structs.replace(msg, depth=msg.depth + delta[0])
+
+
+def test_a_vehicle_of_ones_own_registers_its_sensors() -> None:
+    depth = attacks.Sensor(
+        "boat", "sonar", _Depth, {"depth": attacks.Quantity(("d",), "m")}, _deeper
+    )
+    attacks.register("boat", [depth], {"depth": "sonar"}, module="boats.sensors")
+    assert "boat" in attacks.vehicles()
+    assert attacks.sensor("boat", "depth") is depth  # by its alias
+    config = attacks.InjectorConfig(
+        vehicle="boat",
+        sensor="sonar",
+        source="boat/sonar/raw",
+        target="boat/sonar",
+        period=0.1,
+        models=(attacks.Bias(offset=(2.0,)),),
+    )
+    # An injector in another process imports the module that registers the boat's sensors.
+    assert config.module == "boats.sensors"
+    moved = depth.apply(_Depth(time=0.0, depth=5.0), "depth", (2.0,))
+    assert moved.depth == 7.0
+    with pytest.raises(mcs.ConfigurationError, match="registered sensors"):
+        attacks.sensor("submarine", "sonar")
