@@ -6,10 +6,12 @@ coordinator socket through which process components are stepped.
 
 The backend lives in modules of one concern each; this module gathers their public names:
 
-* ``_waits``: timeouts and crash reports; ``_rundirs``: run directories and the sweep;
-* ``_coordinator``: the lockstep socket; ``_environment``: what components are given;
-* ``_processes``: local processes; ``_firmware``: firmware nodes over ZeroMQ;
-* ``_inprocess``: in-process components; ``_simulators`` and ``_scenario``: simulators.
+* ``waits``: timeouts and crash reports; ``rundirs``: run directories and the sweep;
+* ``coordinator``: the lockstep socket; ``environment``: what components are given;
+* ``processes``: local processes; ``firmware``: firmware nodes over ZeroMQ;
+* ``inprocess``: in-process components; ``simulators``, ``simulation`` and ``scenario``:
+  simulators, the running set, and the base of the scenarios' simulations;
+* ``check``: ``check_component``, the conformance check of a component of one's own.
 """
 
 from __future__ import annotations
