@@ -1,0 +1,512 @@
+"""An FMU as a component: :class:`FMU` (the configuration, checked on construction) and the
+:class:`FMUNode` it starts, in-process, as a local process or in a container."""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import weakref
+from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Literal
+
+import msgspec
+import numpy as np
+
+from ..core.clock import Delivery, Scheduler
+from ..core.errors import ConfigurationError, MulticosimError, NodeStartError
+from ..core.interfaces import Node
+from ..core.messages import decode
+from ..core.version import __version__
+from ..local import InProcessComponent, LocalEnvironment, ProcessComponent, participant_command
+from ..local.waits import DEFAULT_START_TIMEOUT, check_timeout
+from .config import PARAMETERS, SETTABLE, SOLVERS, FMUConfig, Plan, Solver, check_values, plan
+from .messages import LogLine, result_dtype
+from .model import INTERFACES, Interface, Model, describe
+from .participant import PROGRAM, FMUParticipant
+
+if TYPE_CHECKING:
+    from ..trace import TraceOptions
+
+__all__ = ["FMU", "WHERE", "FMUNode", "Where", "build_image", "default_name", "prepare"]
+
+Where = Literal["in-process", "process", "container"]
+# Where an FMU component runs: in the simulation's process (fastest, but a crash of the
+# FMU's native code ends the process), a local process, or a container of its own image.
+WHERE: tuple[Where, ...] = ("in-process", "process", "container")
+
+# Where a container finds its FMU (images/fmu/Dockerfile copies it there).
+_IN_IMAGE = "/opt/fmu"
+_COMPILE_TIMEOUT = 300.0
+
+
+@dataclasses.dataclass(frozen=True)
+class FMU:
+    """An FMU (FMI 2.0 or 3.0) as a component, checked against its model description::
+
+        fmi.FMU("plant.fmu", name="plant", period=0.01, parameters={"e": 0.7},
+                inputs={"u": "cmd"}, outputs={"y": "state"})
+
+    ``inputs`` maps input variables to the topics they are read from, ``outputs`` output
+    variables (or locals named in ``record``) to the topics they are published on; every
+    step the component also publishes its record (time, every output and the ``record``
+    variables) on the topic named like it. ``parameters`` and ``start_values`` set
+    variables by name before the run (arrays as nested or flat sequences). ``period`` is
+    the communication step (default: the FMU's own, :attr:`Model.default_step`).
+
+    ``where`` it runs: ``"in-process"`` (fastest), ``"process"`` (a crash or abort in the
+    FMU's native code is a NodeCrashedError, not the end of the test process) or
+    ``"container"`` (on a ContainerSimulator; its image, the runtime image with the FMU
+    copied in, is built on start unless ``image`` names one). ``interface`` picks
+    co-simulation or model exchange (default: co-simulation when the FMU has it); model
+    exchange is integrated with FMPy's ``solver`` (``"CVode"`` or ``"Euler"``).
+    ``start_time`` is the FMU's time when the simulation starts; ``stop_time`` is told to
+    the FMU and it does not step past it. ``compile`` builds a binary from the FMU's C sources
+    (with FMPy and a C compiler) when it has none for this platform. ``history`` keeps
+    every record for :meth:`FMUNode.result`.
+    """
+
+    path: str | os.PathLike[str]
+    name: str | None = None
+    period: float | None = None
+    parameters: Mapping[str, Any] = dataclasses.field(default_factory=dict)
+    start_values: Mapping[str, Any] = dataclasses.field(default_factory=dict)
+    inputs: Mapping[str, str] = dataclasses.field(default_factory=dict)
+    outputs: Mapping[str, str] = dataclasses.field(default_factory=dict)
+    record: Sequence[str] = ()
+    where: Where = "in-process"
+    interface: Interface | None = None
+    solver: Solver = "CVode"
+    tolerance: float | None = None
+    start_time: float = 0.0
+    stop_time: float | None = None
+    compile: bool = False
+    debug_logging: bool = False
+    image: str | None = None
+    history: bool = True
+    start_timeout: float = DEFAULT_START_TIMEOUT
+
+    def __post_init__(self) -> None:
+        model = describe(self.path)
+        if self.where not in WHERE:
+            raise ConfigurationError("where", self.where, f"one of {WHERE}")
+        if not model.runnable_here and not self.compile:
+            raise ConfigurationError("path", str(self.path), _no_binary(model))
+        if self.compile and not model.runnable_here and not model.has_sources:
+            raise ConfigurationError(
+                "compile", True, f"an FMU with C sources to compile ({model.label} has none)"
+            )
+        name = self.name if self.name is not None else default_name(model)
+        if not isinstance(name, str) or not re.fullmatch(r"[A-Za-z0-9_.-]+", name):
+            raise ConfigurationError(
+                "name", name, "a component name of letters, digits, '_', '.' and '-'"
+            )
+        interface = self.interface or model.interfaces[0]
+        if interface not in INTERFACES:
+            raise ConfigurationError("interface", interface, f"one of {INTERFACES}")
+        period = self.period if self.period is not None else model.default_step
+        if period is None:
+            raise ConfigurationError(
+                "period", None, f"a period in seconds ({model.label} states no default step)"
+            )
+        if self.solver not in SOLVERS:
+            raise ConfigurationError("solver", self.solver, f"one of {SOLVERS} (FMPy's solvers)")
+        check_timeout("start_timeout", self.start_timeout)
+        parameters = check_values(model, self.parameters, "parameters", *PARAMETERS)
+        starts = check_values(
+            model, self.start_values, "start_values", *(c for c in SETTABLE if c not in PARAMETERS)
+        )
+        for field in ("inputs", "outputs"):
+            mapping = getattr(self, field)
+            if not isinstance(mapping, Mapping):
+                raise ConfigurationError(field, mapping, "a mapping of variable name to topic")
+        if isinstance(self.record, str) or not isinstance(self.record, Sequence):
+            raise ConfigurationError("record", self.record, "a sequence of variable names")
+        if self.image is not None and self.where != "container":
+            raise ConfigurationError(
+                "image", self.image, "None (an image is for where='container')"
+            )
+        config = FMUConfig(
+            path=str(model.path),
+            name=name,
+            period=float(period),
+            interface=interface,
+            values={**parameters, **starts},
+            inputs=dict(self.inputs),
+            outputs=dict(self.outputs),
+            record=tuple(self.record),
+            solver=self.solver,
+            tolerance=self.tolerance,
+            start_time=self.start_time,
+            stop_time=self.stop_time,
+            debug_logging=bool(self.debug_logging),
+        )
+        object.__setattr__(self, "name", name)
+        object.__setattr__(self, "_plan", plan(config, model))
+
+    @property
+    def model(self) -> Model:
+        """The FMU's model description (the contract)."""
+        return self.plan.model
+
+    @property
+    def plan(self) -> Plan:
+        """The configuration resolved against the model description."""
+        resolved: Plan = self.__dict__["_plan"]
+        return resolved
+
+    @property
+    def config(self) -> FMUConfig:
+        """What the participant program runs."""
+        return self.plan.config
+
+    def replace(self, **changes: Any) -> FMU:
+        """A copy with ``changes`` (checked again), e.g. ``fmu.replace(where="process")``."""
+        return dataclasses.replace(self, **changes)
+
+    def required_images(self) -> tuple[str, ...]:
+        """The image it needs locally: one given as ``image`` (otherwise it is built)."""
+        return (self.image,) if self.image is not None else ()
+
+    def start(self, environment: LocalEnvironment) -> FMUNode:
+        """Start the FMU where it runs; it steps from the current instant."""
+        plan_ = self.plan
+        name = plan_.config.name
+        collector = _collector(environment.scheduler)
+        records = collector.watch(plan_.topic) if self.history else None
+        lines = collector.watch(plan_.log_topic)
+        try:
+            node = self._start(environment, plan_)
+        except BaseException:
+            collector.forget(plan_.topic, plan_.log_topic)
+            raise
+        return FMUNode(name, self.where, node, plan_, records, lines)
+
+    def _start(self, environment: LocalEnvironment, plan_: Plan) -> Node:
+        config = plan_.config
+        name = config.name
+        if self.where == "container":
+            return self._start_container(environment, plan_)
+        path = config.path
+        if not plan_.model.runnable_here:
+            path = str(prepare(plan_.model, environment.run_dir / f"{name}.fmu.d"))
+        config = msgspec.structs.replace(
+            config, path=path, workdir=str(environment.run_dir / f"{name}.fmu.d")
+        )
+        if self.where == "process":
+            command = [sys.executable, "-m", *participant_command(PROGRAM, config)]
+            return ProcessComponent(command, name=name, start_timeout=self.start_timeout).start(
+                environment
+            )
+        config = msgspec.structs.replace(config, log_file=str(environment.run_dir / f"{name}.log"))
+        resolved = dataclasses.replace(plan_, config=config)
+        return InProcessComponent(lambda: FMUParticipant(config, resolved), name).start(environment)
+
+    def _start_container(self, environment: LocalEnvironment, plan_: Plan) -> Node:
+        try:
+            from ..docker import ContainerComponent, ContainerEnvironment
+        except ImportError as exc:  # the docker extra
+            raise ConfigurationError("where", "container", f"the docker extra: {exc}") from exc
+        if not isinstance(environment, ContainerEnvironment):
+            raise ConfigurationError(
+                "where",
+                "container",
+                "a ContainerSimulator to run in (the docker backend); this simulator runs "
+                "no containers: use where='process' or 'in-process'",
+            )
+        image = self.image or build_image(plan_.model.path, compile=self.compile)
+        inside = f"{_IN_IMAGE}/{_image_entry(plan_.model)}"
+        config = msgspec.structs.replace(plan_.config, path=inside)
+        return ContainerComponent(
+            image,
+            participant_command(PROGRAM, config),
+            name=config.name,
+            start_timeout=self.start_timeout,
+        ).start(environment)
+
+
+class FMUNode:
+    """A running FMU component: its node where it runs, and what it published.
+
+    :meth:`result` gives the recorded variables as fmpy.simulate_fmu gives them (a NumPy
+    structured array: ``time``, then the numbers and booleans); :meth:`log` the FMU's own
+    log messages; :meth:`trace_options` tells a trace recorder the types and units of its
+    channels. ``node`` is the underlying in-process, process or container node.
+    """
+
+    def __init__(
+        self,
+        name: str,
+        where: Where,
+        node: Node,
+        plan: Plan,
+        records: list[Delivery] | None,
+        lines: list[Delivery],
+    ) -> None:
+        self.name = name
+        self.where: Where = where
+        self.node = node
+        self.plan = plan
+        self._records = records
+        self._lines = lines
+        # A ContainerSimulation finds its containers through this attribute (fast stop).
+        container = node if type(node).__name__ == "ContainerNode" else None
+        if container is not None:
+            self.container = container
+
+    @property
+    def model(self) -> Model:
+        """The FMU's model description."""
+        return self.plan.model
+
+    @property
+    def topic(self) -> str:
+        """The topic of its record (its name)."""
+        return self.plan.topic
+
+    def records(self) -> list[Any]:
+        """Every record published so far, typed (see :mod:`multicosim.fmi.messages`)."""
+        if self._records is None:
+            raise MulticosimError(f"FMU {self.name!r} keeps no history (history=False)")
+        tp = self.plan.record_type
+        return [
+            d.obj if type(d.obj) is tp else decode(d.data, tp, what=f"{self.name}'s record")
+            for d in self._records
+        ]
+
+    def result(self, variables: Sequence[str] | None = None) -> Any:
+        """The records as fmpy.simulate_fmu returns its result: a ``SimulationResult`` with
+        ``time`` and the recorded numbers and booleans (or only ``variables``), in FMPy's
+        column order."""
+        from fmpy.simulation import SimulationResult
+
+        plan_ = self.plan
+        recorded = {v.name: i for i, v in enumerate(plan_.recorded, start=1)}
+        if variables is not None:
+            for name in variables:
+                if name not in recorded:
+                    raise ConfigurationError(
+                        "variables", name, f"a recorded variable: one of {sorted(recorded)}"
+                    )
+        wanted = [v for v in plan_.recorded if variables is None or v.name in variables]
+        rows = [msgspec.structs.astuple(r) for r in self.records()]
+        dtype = result_dtype(plan_.model, wanted, plan_.shapes)
+        result = np.zeros(len(rows), dtype=dtype)
+        result["time"] = [r[0] for r in rows]
+        for v in wanted:
+            if v.name in (dtype.names or ()):  # numbers and booleans, as FMPy records them
+                i = recorded[v.name]
+                shape = plan_.shapes.get(v.name, ())
+                values = np.asarray([r[i] for r in rows], dtype=dtype[v.name].base)
+                result[v.name] = values.reshape((len(rows), *shape))
+        view = result.view(SimulationResult)
+        view.modelDescription = plan_.model.description
+        return view
+
+    def log(self) -> list[LogLine]:
+        """The FMU's log messages so far (its logger callback), oldest first."""
+        return [
+            d.obj if isinstance(d.obj, LogLine) else decode(d.data, LogLine) for d in self._lines
+        ]
+
+    def trace_options(self) -> TraceOptions:
+        """Its channels for a trace: the record's type (schema from the model description,
+        units included), the log as ``foxglove.Log``, a plot of its outputs."""
+        from ..trace import TraceOptions, message_path
+
+        plan_ = self.plan
+        scalars = [
+            v.name
+            for v in plan_.recorded
+            if v.causality == "output" and not v.is_array and v.python_type in (float, int, bool)
+        ]
+        plots = [(f"FMU {self.name}", [message_path(plan_.topic, n) for n in scalars[:6]])]
+        return TraceOptions(
+            types={plan_.topic: plan_.record_type, plan_.log_topic: LogLine},
+            converters=(_LogChannel(plan_.log_topic, self.name),),
+            replaced=(plan_.log_topic,),
+            plots=plots if scalars else (),
+        )
+
+    def stop(self) -> None:
+        """Stop it where it runs (the instance is freed, extracted files removed)."""
+        self.node.stop()
+
+    def __repr__(self) -> str:
+        return f"FMUNode({self.name!r}, where={self.where!r}, model={self.model.name!r})"
+
+
+@dataclasses.dataclass(frozen=True)
+class _LogChannel:
+    """The FMU's log messages as a ``foxglove.Log`` channel (Foxglove's Log panel)."""
+
+    topic: str
+    name: str
+
+    @property
+    def topics(self) -> tuple[str, ...]:
+        return (self.topic,)
+
+    def __call__(self, topic: str, time_ns: int, message: Any) -> Iterable[Any]:
+        from ..trace import LOG, Converted, stamp
+
+        level = {"OK": 2, "Warning": 3, "Discard": 3, "Error": 4, "Fatal": 5}.get(
+            str(message.get("status")), 2
+        )
+        return (
+            Converted(
+                self.topic,
+                LOG,
+                {
+                    "timestamp": stamp(time_ns),
+                    "level": level,
+                    "message": str(message.get("message", "")),
+                    "name": self.name,
+                    "file": str(message.get("category", "")),
+                    "line": 0,
+                },
+            ),
+        )
+
+
+# -- what the FMUs of one simulation published -------------------------------------------------
+
+
+class _Collector:
+    """One scheduler tap for every FMU of a simulation: keeps the deliveries of some topics."""
+
+    def __init__(self) -> None:
+        self.topics: dict[str, list[Delivery]] = {}
+
+    def __call__(self, delivery: Delivery) -> None:
+        kept = self.topics.get(delivery.topic)
+        if kept is not None:
+            kept.append(delivery)
+
+    def watch(self, topic: str) -> list[Delivery]:
+        return self.topics.setdefault(topic, [])
+
+    def forget(self, *topics: str) -> None:
+        for topic in topics:
+            self.topics.pop(topic, None)
+
+
+_collectors: weakref.WeakKeyDictionary[Scheduler, _Collector] = weakref.WeakKeyDictionary()
+
+
+def _collector(scheduler: Scheduler) -> _Collector:
+    found = _collectors.get(scheduler)
+    if found is None:
+        found = _collectors[scheduler] = _Collector()
+        scheduler.taps.append(found)
+    return found
+
+
+# -- binaries, images ----------------------------------------------------------------------------
+
+
+def default_name(model: Model) -> str:
+    """The name an FMU component gets unless given one: its file's stem."""
+    return re.sub(r"[^A-Za-z0-9_.-]", "_", model.path.stem) or "fmu"
+
+
+def _no_binary(model: Model) -> str:
+    from fmpy import platform
+
+    others = [p for p in model.platforms if p != "c-code"] or ["none"]
+    text = f"an FMU with a binary for this platform ({platform}); {model.label} has binaries for: "
+    text += ", ".join(others)
+    if model.has_sources:
+        return (
+            f"{text}; it carries C sources: compile=True builds a binary with FMPy "
+            "(needs cmake and a C compiler)"
+        )
+    return text + ", and no C sources to build one from"
+
+
+def prepare(model: Model, directory: Path) -> Path:
+    """The FMU extracted into ``directory`` with a binary compiled from its sources by FMPy.
+
+    NodeStartError (with the compiler's output) if the build fails or takes longer than
+    five minutes.
+    """
+    from fmpy import extract
+
+    directory.mkdir(parents=True, exist_ok=True)
+    unzipped = directory / "fmu"
+    if model.path.is_dir():
+        shutil.copytree(model.path, unzipped, dirs_exist_ok=True)
+    else:
+        extract(str(model.path), str(unzipped))
+    build = directory / "build"
+    build.mkdir(exist_ok=True)
+    script = (
+        "import sys, fmpy.build; "
+        "fmpy.build.build_platform_binary(sys.argv[1], build_dir=sys.argv[2])"
+    )
+    # FMPy runs cmake, which its PyPI dependency puts beside this interpreter.
+    env = {
+        **os.environ,
+        "PATH": os.pathsep.join([str(Path(sys.executable).parent), os.environ.get("PATH", "")]),
+    }
+    try:
+        done = subprocess.run(
+            [sys.executable, "-c", script, str(unzipped), str(build)],
+            capture_output=True,
+            text=True,
+            timeout=_COMPILE_TIMEOUT,
+            env=env,
+            check=False,
+        )
+    except subprocess.TimeoutExpired as exc:
+        raise NodeStartError(
+            model.name, f"could not be compiled within {_COMPILE_TIMEOUT:g} s"
+        ) from exc
+    finally:
+        shutil.rmtree(build, ignore_errors=True)
+    if done.returncode != 0:
+        tail = "\n".join((done.stdout + done.stderr).splitlines()[-30:])
+        raise NodeStartError(
+            model.name, "could not be compiled from its C sources with FMPy", log_tail=tail
+        )
+    return unzipped
+
+
+def _image_entry(model: Model) -> str:
+    return "model" if model.path.is_dir() or not model.runnable_here else model.path.name
+
+
+def build_image(path: str | os.PathLike[str], *, compile: bool = False, force: bool = False) -> str:
+    """Build the image of the FMU at ``path`` (the runtime image with FMPy, the FMU copied
+    to /opt/fmu); return its tag. Built locally like every multicosim image (never pulled);
+    skipped when it exists for the same FMU. ``compile`` builds its binary from its C sources
+    first (on this machine, with FMPy), where it has none for this platform."""
+    from ..docker import build_derived
+
+    model = describe(path)
+    if not model.runnable_here and not compile:
+        raise ConfigurationError("path", str(path), _no_binary(model))
+    digest = _content_digest(model.path)
+    slug = re.sub(r"[^a-z0-9_.-]", "-", model.path.stem.lower()).strip("-.") or "fmu"
+    tag = f"multicosim/fmu-{slug}:{__version__}-{digest[:12]}"
+    entry = _image_entry(model)
+    if model.runnable_here:
+        return build_derived("fmu", {f"fmu/{entry}": model.path}, tag=tag, force=force)
+    with tempfile.TemporaryDirectory(prefix="mcs-fmu-compile-") as tmp:
+        compiled = prepare(model, Path(tmp))
+        return build_derived("fmu", {f"fmu/{entry}": compiled}, tag=tag, force=force)
+
+
+def _content_digest(path: Path) -> str:
+    h = hashlib.sha256()
+    files = sorted(p for p in path.rglob("*") if p.is_file()) if path.is_dir() else [path]
+    for file in files:
+        h.update(str(file.relative_to(path) if path.is_dir() else file.name).encode() + b"\0")
+        h.update(file.read_bytes())
+    return h.hexdigest()
