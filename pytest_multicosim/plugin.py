@@ -56,6 +56,7 @@ FIXTURE_LIBRARIES = (
     "pytest_multicosim.px4",
     "pytest_multicosim.ardupilot",
     "pytest_multicosim.gps_noise",
+    "pytest_multicosim.fmi",
 )
 
 SimT = TypeVar("SimT")
