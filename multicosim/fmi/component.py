@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import json
 import os
 import re
 import shutil
@@ -26,7 +27,17 @@ from ..core.messages import decode
 from ..core.version import __version__
 from ..local import InProcessComponent, LocalEnvironment, ProcessComponent, participant_command
 from ..local.waits import DEFAULT_START_TIMEOUT, check_timeout
-from .config import PARAMETERS, SETTABLE, SOLVERS, FMUConfig, Plan, Solver, check_values, plan
+from .config import (
+    PARAMETERS,
+    SETTABLE,
+    SOLVERS,
+    FMUConfig,
+    Plan,
+    Solver,
+    check_values,
+    plan,
+    shapes_of,
+)
 from .messages import LogLine, result_dtype
 from .model import INTERFACES, Interface, Model, describe
 from .participant import PROGRAM, FMUParticipant
@@ -118,10 +129,10 @@ class FMU:
         if self.solver not in SOLVERS:
             raise ConfigurationError("solver", self.solver, f"one of {SOLVERS} (FMPy's solvers)")
         check_timeout("start_timeout", self.start_timeout)
-        parameters = check_values(model, self.parameters, "parameters", *PARAMETERS)
-        starts = check_values(
-            model, self.start_values, "start_values", *(c for c in SETTABLE if c not in PARAMETERS)
-        )
+        shapes = shapes_of(model, self.parameters, "parameters")
+        parameters = check_values(model, self.parameters, "parameters", *PARAMETERS, shapes=shapes)
+        others = (c for c in SETTABLE if c not in PARAMETERS)
+        starts = check_values(model, self.start_values, "start_values", *others, shapes=shapes)
         for field in ("inputs", "outputs"):
             mapping = getattr(self, field)
             if not isinstance(mapping, Mapping):
@@ -447,9 +458,14 @@ def prepare(model: Model, directory: Path) -> Path:
     build = directory / "build"
     build.mkdir(exist_ok=True)
     script = (
-        "import sys, fmpy.build; "
-        "fmpy.build.build_platform_binary(sys.argv[1], build_dir=sys.argv[2])"
+        "import json, sys, fmpy.build; fmpy.build.build_platform_binary("
+        "sys.argv[1], build_dir=sys.argv[2], cmake_options=json.loads(sys.argv[3]))"
     )
+    options = {}
+    if model.fmi_version.startswith("3"):
+        # FMPy 0.3.32 defines an empty function prefix on Windows only: elsewhere the FMI 3
+        # functions of a source FMU keep the model identifier's prefix, and FMPy finds none.
+        options["CMAKE_C_FLAGS:STRING"] = "-DFMI3_FUNCTION_PREFIX="
     # FMPy runs cmake, which its PyPI dependency puts beside this interpreter.
     env = {
         **os.environ,
@@ -457,7 +473,7 @@ def prepare(model: Model, directory: Path) -> Path:
     }
     try:
         done = subprocess.run(
-            [sys.executable, "-c", script, str(unzipped), str(build)],
+            [sys.executable, "-c", script, str(unzipped), str(build), json.dumps(options)],
             capture_output=True,
             text=True,
             timeout=_COMPILE_TIMEOUT,

@@ -30,6 +30,7 @@ __all__ = [
     "Solver",
     "check_values",
     "plan",
+    "shapes_of",
 ]
 
 Solver = Literal["CVode", "Euler"]
@@ -107,17 +108,8 @@ def plan(config: FMUConfig, model: Model | None = None) -> Plan:
     if config.solver not in SOLVERS:
         raise ConfigurationError("solver", config.solver, f"one of {SOLVERS} (FMPy's solvers)")
     _check_times(config, model)
-    values = check_values(model, config.values, "values", *SETTABLE)
-    structural = {
-        v.value_reference: int(values.get(v.name, v.start or 0))
-        for v in model.of("structuralParameter")
-    }
-    shapes = {v.name: _shape(v, structural) for v in model.variables.values() if v.is_array}
-    # Arrays resized by structural parameters are checked again at their new size.
-    for name, value in list(values.items()):
-        v = model.variables[name]
-        if v.is_array:
-            values[name] = v.check(value, f"values[{name!r}]", shapes[name])
+    shapes = shapes_of(model, config.values, "values")
+    values = check_values(model, config.values, "values", *SETTABLE, shapes=shapes)
     extra = []
     for i, name in enumerate(config.record):
         extra.append(model.variable(name, f"record[{i}]", "input", "output", "local", "parameter"))
@@ -129,14 +121,16 @@ def plan(config: FMUConfig, model: Model | None = None) -> Plan:
     seen_topics: dict[str, str] = {}
     for name, topic in config.outputs.items():
         field = f"outputs[{name!r}]"
-        v = model.variable(name, "outputs", "output", "local")
-        if v.causality == "local" and name not in config.record:
+        local = model.variables.get(name)
+        if local is not None and local.causality == "local" and name not in config.record:
             raise ConfigurationError(
                 "outputs",
                 name,
                 f"an output, or a local variable named in record=(...) too (publishing a "
-                f"local is asked for by recording it); {v.describe()} is a local",
+                f"local is asked for by recording it); {local.describe()} is a local",
             )
+        recorded_locals = ("local",) if name in config.record else ()
+        v = model.variable(name, "outputs", "output", *recorded_locals)
         _check_topic(field, topic, taken)
         if topic in seen_topics:
             raise ConfigurationError(
@@ -170,9 +164,16 @@ def plan(config: FMUConfig, model: Model | None = None) -> Plan:
     )
 
 
-def check_values(model: Model, given: object, field_name: str, *causalities: str) -> dict[str, Any]:
+def check_values(
+    model: Model,
+    given: object,
+    field_name: str,
+    *causalities: str,
+    shapes: Mapping[str, tuple[int, ...]] | None = None,
+) -> dict[str, Any]:
     """``given`` (variable name -> value) checked against ``model``: each a settable variable
-    of one of ``causalities``, each value of its type, size and range (arrays flattened)."""
+    of one of ``causalities``, each value of its type, size and range (arrays flattened, at
+    the ``shapes`` the structural parameters give them, :func:`shapes_of`)."""
     if not isinstance(given, Mapping):
         raise ConfigurationError(field_name, given, "a mapping of variable name to value")
     out: dict[str, Any] = {}
@@ -186,8 +187,19 @@ def check_values(model: Model, given: object, field_name: str, *causalities: str
                 f"nothing: {v.describe()} is {v.variability} with initial={v.initial}, "
                 "so its value cannot be set",
             )
-        out[name] = v.check(value, field)
+        out[name] = v.check(value, field, (shapes or {}).get(name))
     return out
+
+
+def shapes_of(model: Model, given: object, field_name: str) -> dict[str, tuple[int, ...]]:
+    """The shape of every array of ``model`` once the structural parameters in ``given``
+    (variable name -> value; the others keep their start values) are set."""
+    structural: dict[int, int] = {}
+    for v in model.of("structuralParameter"):
+        value = given.get(v.name, v.start) if isinstance(given, Mapping) else v.start
+        checked = v.check(value if value is not None else 0, f"{field_name}[{v.name!r}]")
+        structural[v.value_reference] = int(checked)
+    return {v.name: _shape(v, structural) for v in model.variables.values() if v.is_array}
 
 
 def _shape(v: Variable, structural: Mapping[int, int]) -> tuple[int, ...]:

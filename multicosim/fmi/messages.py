@@ -78,6 +78,9 @@ _NUMPY = {
 }
 
 
+_INT64_MAX = 2**63 - 1
+
+
 class LogLine(msgspec.Struct, frozen=True, gc=False):
     """One of the FMU's log messages: its FMI status, the category, the text."""
 
@@ -119,6 +122,9 @@ def value_type(v: Variable, shape: tuple[int, ...]) -> Any:
         cast = int if tp is int else float
         ge = None if low is None else cast(low)
         le = None if high is None else cast(high)
+        if tp is int and le is not None and le > _INT64_MAX:
+            le = None  # msgspec checks only bounds within int64; UInt64 holds more
+
         tp = Annotated[tp, msgspec.Meta(ge=ge, le=le)]
     if v.is_array:
         size = math.prod(shape)

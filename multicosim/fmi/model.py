@@ -96,11 +96,12 @@ class Variable:
         """Whether it is an FMI 3 array."""
         return bool(self.dimensions)
 
-    def describe(self) -> str:
+    def describe(self, shape: tuple[int, ...] | None = None) -> str:
         """``name`` with its type, shape and unit, as error messages show it."""
         text = f"{self.name} ({self.type}"
-        if self.shape:
-            text += "[" + ",".join(map(str, self.shape)) + "]"
+        shape = self.shape if shape is None else shape
+        if shape:
+            text += "[" + ",".join(map(str, shape)) + "]"
         if self.unit:
             text += f", {self.unit}"
         return text + ")"
@@ -116,7 +117,7 @@ class Variable:
             what += f" in [{_fmt(low)}, {_fmt(high)}]"
         if self.is_array:
             what = f"{math.prod(shape)} values (shape {shape}), each {what}"
-        return f"{what}, as {self.describe()} declares"
+        return f"{what}, as {self.describe(shape)} declares"
 
     def bounds(self) -> tuple[float | None, float | None]:
         """The lowest and highest value it takes: its min/max, within its integer type."""
@@ -280,25 +281,37 @@ def describe(path: str | os.PathLike[str]) -> Model:
         raise ConfigurationError(
             "path", str(path), "an existing .fmu file (or an extracted FMU's directory)"
         )
-    stat = resolved.stat()
     if resolved.is_dir():
-        xml = resolved / "modelDescription.xml"
-        if not xml.is_file():
+        if not (resolved / "modelDescription.xml").is_file():
             raise ConfigurationError(
                 "path", str(path), "an FMU: this directory holds no modelDescription.xml"
             )
-        stat = xml.stat()
-    return _describe(resolved, stat.st_mtime_ns, stat.st_size)
+        # Keyed on every file's modification time: binaries built or removed change it.
+        signature: tuple[tuple[object, ...], ...] = tuple(
+            (str(p.relative_to(resolved)), p.stat().st_mtime_ns)
+            for p in sorted(resolved.rglob("*"))
+            if p.is_file()
+        )
+    else:
+        stat = resolved.stat()
+        signature = ((resolved.name, stat.st_mtime_ns, stat.st_size),)
+    return _describe(resolved, signature)
 
 
 @functools.lru_cache(maxsize=64)
-def _describe(path: Path, mtime_ns: int, size: int) -> Model:
-    # Keyed on modification time and size too: a rebuilt FMU at the same path is read again.
+def _describe(path: Path, signature: tuple[tuple[object, ...], ...]) -> Model:
+    # Keyed on what the files are too: a rebuilt FMU at the same path is read again.
     fmpy = require("fmpy", "fmi")
     from fmpy.model_description import ValidationError, read_model_description
 
     try:
-        md = read_model_description(str(path), validate=True)
+        if path.is_dir():
+            md = read_model_description(str(path), validate=True)
+        else:
+            # Opened here so that it is closed here: FMPy leaves its own handle to the
+            # garbage collector when the description does not validate.
+            with open(path, "rb") as stream:
+                md = read_model_description(stream, validate=True)
     except ValidationError as exc:
         problems = "; ".join(str(p).strip() for p in getattr(exc, "problems", [exc])[:5])
         raise ConfigurationError(

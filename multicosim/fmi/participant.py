@@ -20,7 +20,6 @@ import tempfile
 from pathlib import Path
 from typing import IO, Any
 
-from ..core.errors import MulticosimError
 from ..runtime.context import StepContext, Subscription
 from .config import FMUConfig, Plan, plan
 from .errors import FMUError
@@ -122,30 +121,30 @@ class FMUParticipant:
             time = stop
         if self._ending:  # the FMU ended the run, at its last successful time
             time = instance.time
+        # Read before any FMI call: a message that does not decode is the publisher's
+        # fault (a TransportError naming the topic), not the FMU's.
+        arrived = [(set_value, sub.messages) for sub, set_value in self._inputs]
+        finished = self._ending or (stop is not None and (time >= stop or math.isclose(time, stop)))
+        until = config.start_time + (n + 1) * config.period
+        if stop is not None and until > stop and not math.isclose(until, stop):
+            until = stop
         try:
-            for sub, set_value in self._inputs:
-                messages = sub.messages
+            for set_value, messages in arrived:
                 if messages:
                     set_value(messages[-1])
             values = self._read()
-            ctx.publish(self.plan.topic, self.plan.record_type(time, *values))
-            for index, topic in self.plan.outputs:
-                ctx.publish(topic, values[index])
-            if self._ending or (stop is not None and (time >= stop or math.isclose(time, stop))):
-                self._finish(ctx)
-                return
-            until = config.start_time + (n + 1) * config.period
-            if stop is not None and until > stop and not math.isclose(until, stop):
-                until = stop
-            instance.advance(time, until)
-        except MulticosimError as exc:
-            if isinstance(exc, FMUError):
-                self._failed(ctx, exc)
-            raise
+            if not finished:
+                instance.advance(time, until)
         except Exception as exc:  # FMPy's FMICallException, or the solver's
             error = instance.failure(exc, "step", time)
             self._failed(ctx, error)
             raise error from exc
+        ctx.publish(self.plan.topic, self.plan.record_type(time, *values))
+        for index, topic in self.plan.outputs:
+            ctx.publish(topic, values[index])
+        if finished:
+            self._finish(ctx)
+            return
         self.steps = n + 1
         if instance.terminated:
             self._on_log(1, "multicosim", f"the FMU ended its run at t={instance.time:.9g} s")
