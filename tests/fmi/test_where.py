@@ -144,3 +144,26 @@ def test_a_container_fmu_needs_a_container_simulator(reference_fmus: Path) -> No
     simulator.add(fmi.FMU(reference_fmus / "fmi2" / "Dahlquist.fmu", where="container"))
     with pytest.raises(mcs.ConfigurationError, match="a ContainerSimulator to run in"):
         simulator.start()
+
+
+def test_multicosim_images_build_builds_an_fmus_image(
+    reference_fmus: Path, mcs_runtime_image: str
+) -> None:
+    import subprocess
+    import sys
+
+    from multicosim.docker.engine import client
+
+    path = reference_fmus / "fmi2" / "Dahlquist.fmu"
+    done = subprocess.run(
+        [sys.executable, "-m", "multicosim", "images", "build", "--fmu", str(path)],
+        capture_output=True,
+        text=True,
+        timeout=900,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    tag = done.stdout.split()[-1]
+    assert tag == fmi.build_image(path)  # the same inputs, the same image (not rebuilt)
+    files = client().containers.run(tag, ["ls", "/opt/fmu"], remove=True).decode()
+    assert files.split() == ["Dahlquist.fmu"]
