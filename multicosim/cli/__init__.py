@@ -171,8 +171,7 @@ def main(argv: list[str] | None = None) -> int:
         "--fmu",
         action="append",
         metavar="PATH",
-        help="also build the image of this FMU (the runtime image with it in /opt/fmu); "
-        "repeatable",
+        help="also build the image of this FMU (the runtime image with it in /opt/fmu); repeatable",
     )
     p.add_argument(
         "--compile",
