@@ -57,8 +57,6 @@ class FMUParticipant:
     def setup(self, ctx: StepContext) -> None:
         """Extract, instantiate and initialize the FMU; subscribe to its input topics."""
         config, resolved = self.config, self.plan
-        if config.log_file is not None:
-            self._log = open(config.log_file, "a", encoding="utf-8")  # noqa: SIM115 - closed in close()
         try:
             self._unzipdir = self._extract()
             instance = Instance(
@@ -173,7 +171,10 @@ class FMUParticipant:
             self._tail = [*self._tail[-(_LOG_TAIL - 1) :], text]
             self._lines.append((label, category, message))
             time = self.instance.time if self.instance is not None else self.config.start_time
-            if self._log is not None:
+            log_file = self.config.log_file
+            if log_file is not None:
+                if self._log is None:  # opened with the first line: no empty logs
+                    self._log = open(log_file, "a", encoding="utf-8")  # noqa: SIM115 - close()
                 self._log.write(f"t={time:.9g} {self.config.name} {text}\n")
                 self._log.flush()
             else:

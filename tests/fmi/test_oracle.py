@@ -85,15 +85,14 @@ def test_fmpy_result_is_what_simulate_returns(reference_fmus: Path) -> None:
     assert result.dtype.names == ("time", "h", "v", "h_ft")
 
 
-@pytest.mark.parametrize(("version", "name"), CASES)
+# Roberts' published results are not Roberts' (see the test below): it is left out here.
+PUBLISHED = [(version, name) for version, name in CASES if name != "Roberts"]
+
+
+@pytest.mark.parametrize(("version", "name"), PUBLISHED)
 def test_matches_the_published_reference_results(
     reference_fmus: Path, version: str, name: str
 ) -> None:
-    if name == "Roberts":
-        pytest.skip(
-            "the published Roberts_out.csv (v0.0.41) holds BouncingBall's columns (h, v), "
-            "not Roberts' (y1, y2, y3): there is nothing to compare with"
-        )
     from fmpy.cross_check import validate_result
 
     reference = read_csv(str(reference_fmus / "reference-results" / f"{name}_out.csv"))
@@ -109,6 +108,15 @@ def test_matches_the_published_reference_results(
     assert problem is None, problem
     for column in reference.dtype.names[1:]:
         assert column in (ours.dtype.names or ())
+
+
+def test_the_published_roberts_results_are_bouncing_balls(reference_fmus: Path) -> None:
+    # v0.0.41 ships BouncingBall's results as Roberts_out.csv: nothing to compare Roberts
+    # with. Should a release fix it, this fails, and Roberts joins the comparison above.
+    published = read_csv(str(reference_fmus / "reference-results" / "Roberts_out.csv"))
+    bouncing = read_csv(str(reference_fmus / "reference-results" / "BouncingBall_out.csv"))
+    assert published.dtype.names == ("time", "h", "v")
+    np.testing.assert_array_equal(published["h"], bouncing["h"])
 
 
 @pytest.mark.parametrize("name", INPUTLESS["fmi2"])
