@@ -4,14 +4,16 @@
    output recorded) against ``fmpy.simulate_fmu``'s own co-simulation loop on the same FMU
    and step (VanDerPol, FMI 2 and FMI 3, 10 ms). Per step = the difference between a long
    and a short run over the difference in steps, so set-up (extraction, instantiation,
-   starting the simulation) cancels out. Rounds alternate; the medians are compared. Target:
-   at most 1.5 times FMPy's cost.
+   starting the simulation) cancels out; CPU time of this process, which other programs on
+   a shared machine do not inflate. Rounds alternate; the medians are compared. Target: at
+   most 1.5 times FMPy's cost.
 2. As a process: one lockstep step of the FMU in its own process (``advance(period)``)
    against a raw ZeroMQ ROUTER/DEALER round trip between two processes (the same peer as
-   ``bench_transport.py``), and against the FMU's in-process step: what the process adds.
-3. Growth: wall time of a run with 1, 2, 4, 8 and 16 FMUs in one simulation, in-process
-   (and as processes unless ``--quick``); the fitted exponent of wall time against the count
-   is 1 for linear growth.
+   ``bench_transport.py``), beside the FMU's in-process step and the lockstep exchange of a
+   participant process that does nothing: what the FMU's process adds.
+3. Growth: the cost of a run with 1, 2, 4, 8 and 16 FMUs in one simulation, in-process (CPU
+   time) and, unless ``--quick``, as processes (wall time); the fitted exponent of cost
+   against the count is 1 for linear growth.
 
 The Reference FMUs come from ``MCS_REFERENCE_FMUS`` or ``../shared/reference-fmus``; without
 them the benchmark says so and measures nothing.
@@ -34,7 +36,7 @@ from typing import Any
 import fmpy
 import zmq
 from _common import ROOT, fit_exponent, write_result
-from bench_transport import RawPeer, run_rounds, summary
+from bench_transport import HERE, STEP_PERIOD, RawPeer, run_rounds, summary
 
 import multicosim as mcs
 from multicosim import fmi
@@ -56,14 +58,14 @@ def per_step_in_process(path: Path, short: float, long: float, rounds: int) -> d
     """Per-step cost (us) of fmi.simulate and fmpy.simulate_fmu, from long minus short runs."""
 
     def ours(stop: float) -> float:
-        t0 = time.perf_counter()
+        t0 = time.process_time()
         fmi.simulate(path, stop_time=stop, step=STEP)
-        return time.perf_counter() - t0
+        return time.process_time() - t0
 
     def theirs(stop: float) -> float:
-        t0 = time.perf_counter()
+        t0 = time.process_time()
         fmpy.simulate_fmu(str(path), stop_time=stop, output_interval=STEP, fmi_type="CoSimulation")
-        return time.perf_counter() - t0
+        return time.process_time() - t0
 
     steps = round((long - short) / STEP)
     samples: dict[str, list[float]] = {"multicosim": [], "fmpy": []}
@@ -89,6 +91,15 @@ def process_step(path: Path, iterations: int, rounds: int) -> dict[str, Any]:
     in_process.add(fmi.FMU(path, name="vdp", period=STEP, history=False))
     simulator = mcs.ProcessSimulator()
     simulator.add(fmi.FMU(path, name="vdp", period=STEP, where="process", history=False))
+    # The lockstep exchange alone: a participant process whose step does nothing.
+    idle = mcs.ProcessSimulator()
+    idle.add(
+        mcs.ProcessComponent(
+            "python -m multicosim participant bench_transport:Idle",
+            name="idle",
+            env={"PYTHONPATH": os.pathsep.join([str(HERE), os.environ.get("PYTHONPATH", "")])},
+        )
+    )
     zctx = zmq.Context()
     router = zctx.socket(zmq.ROUTER)
     port = router.bind_to_random_port("tcp://127.0.0.1")
@@ -96,9 +107,10 @@ def process_step(path: Path, iterations: int, rounds: int) -> dict[str, Any]:
     ident, _hello = router.recv_multipart()
     step = wire.encoder.encode(wire.Step(10**9, []))
     try:
-        with simulator.start() as sim, in_process.start() as local:
+        with simulator.start() as sim, in_process.start() as local, idle.start() as nothing:
             sim.advance(STEP)  # the first advance also runs the t=0 step
             local.advance(STEP)
+            nothing.advance(STEP_PERIOD)
 
             def raw() -> list[bytes]:
                 router.send_multipart([ident, step])
@@ -109,6 +121,7 @@ def process_step(path: Path, iterations: int, rounds: int) -> dict[str, Any]:
                     "raw ROUTER/DEALER": raw,
                     "FMU as a process": lambda: sim.advance(STEP),
                     "FMU in-process": lambda: local.advance(STEP),
+                    "idle participant as a process": lambda: nothing.advance(STEP_PERIOD),
                 },
                 iterations,
                 rounds,
@@ -123,18 +136,22 @@ def process_step(path: Path, iterations: int, rounds: int) -> dict[str, Any]:
         "fmu": f"{path.parent.name}/{path.name}",
         "stats": stats,
         "ratio": stats["FMU as a process"]["median_us"] / raw_us,
+        # What the FMU's process adds to the exchange of a participant that does nothing,
+        # beyond its own step.
         "added_us": stats["FMU as a process"]["median_us"]
-        - raw_us
+        - stats["idle participant as a process"]["median_us"]
         - stats["FMU in-process"]["median_us"],
     }
 
 
 def growth(path: Path, where: fmi.Where, duration: float, repeat: int) -> dict[str, Any]:
-    """Wall time of ``advance(duration)`` with 1..16 FMUs in one simulation (best of repeat)."""
-    points = []
-    for count in COUNTS:
-        best = float("inf")
-        for _ in range(repeat):
+    """Cost of ``advance(duration)`` with 1..16 FMUs in one simulation: CPU time of this
+    process in-process, wall time with the FMUs as processes; the counts take turns, and
+    each count's median over ``repeat`` runs is kept."""
+    clock = time.process_time if where == "in-process" else time.perf_counter
+    costs: dict[int, list[float]] = {count: [] for count in COUNTS}
+    for r in range(repeat):
+        for count in COUNTS if r % 2 == 0 else reversed(COUNTS):
             simulator = mcs.ProcessSimulator()
             for i in range(count):
                 simulator.add(
@@ -143,17 +160,20 @@ def growth(path: Path, where: fmi.Where, duration: float, repeat: int) -> dict[s
             with simulator.start() as sim:
                 sim.advance(10 * STEP)  # set-up and first steps are not the growth measured
                 gc.collect()
-                t0 = time.perf_counter()
+                t0 = clock()
                 sim.advance(duration)
-                best = min(best, time.perf_counter() - t0)
+                costs[count].append(clock() - t0)
+    points = []
+    for count in COUNTS:
+        cost = statistics.median(costs[count])
         steps = round(duration / STEP) * count
-        points.append({"fmus": count, "wall_s": best, "per_fmu_step_us": best / steps * 1e6})
-    counts = [float(p["fmus"]) for p in points]
+        points.append({"fmus": count, "cost_s": cost, "per_fmu_step_us": cost / steps * 1e6})
     return {
         "where": where,
+        "clock": "process CPU time" if where == "in-process" else "wall time",
         "duration_s": duration,
         "points": points,
-        "exponent": fit_exponent(counts, [p["wall_s"] for p in points]),
+        "exponent": fit_exponent([float(c) for c in COUNTS], [p["cost_s"] for p in points]),
     }
 
 
@@ -189,20 +209,21 @@ def main(argv: list[str] | None = None) -> int:
     print(
         f"{process['fmu']}: as a process {s['FMU as a process']['median_us']:.0f} us per step, "
         f"raw ROUTER/DEALER {s['raw ROUTER/DEALER']['median_us']:.0f} us, in-process "
-        f"{s['FMU in-process']['median_us']:.1f} us: ratio {process['ratio']:.2f}"
+        f"{s['FMU in-process']['median_us']:.1f} us, an idle participant process "
+        f"{s['idle participant as a process']['median_us']:.0f} us: ratio {process['ratio']:.2f}"
     )
     grown = {
         "in-process": growth(
-            path, "in-process", 1.0 if args.quick else 30.0, 1 if args.quick else 5
+            path, "in-process", 1.0 if args.quick else 10.0, 1 if args.quick else 7
         )
     }
     if not args.quick:
-        grown["process"] = growth(path, "process", 2.0, 1)
+        grown["process"] = growth(path, "process", 2.0, 3)
     for where, g in grown.items():
         print(f"growth, {where}: exponent {g['exponent']:.2f}")
         for p in g["points"]:
             print(
-                f"  {p['fmus']:2d} FMUs  {p['wall_s']:7.3f} s  "
+                f"  {p['fmus']:2d} FMUs  {p['cost_s']:7.3f} s  "
                 f"{p['per_fmu_step_us']:6.1f} us per FMU step"
             )
     elapsed = time.perf_counter() - started

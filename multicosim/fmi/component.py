@@ -188,36 +188,54 @@ class FMU:
     def start(self, environment: LocalEnvironment) -> FMUNode:
         """Start the FMU where it runs; it steps from the current instant."""
         plan_ = self.plan
-        name = plan_.config.name
+        if self.where == "in-process":
+            participant, node = self._start_in_process(environment, plan_)
+            records = participant.history if self.history else None
+            return FMUNode(
+                plan_.config.name, self.where, node, plan_, records, participant.log_lines
+            )
+        # What another process publishes is kept from the scheduler's traffic.
         collector = _collector(environment.scheduler)
-        records = collector.watch(plan_.topic) if self.history else None
+        kept = collector.watch(plan_.topic) if self.history else None
         lines = collector.watch(plan_.log_topic)
         try:
-            node = self._start(environment, plan_)
+            if self.where == "container":
+                node = self._start_container(environment, plan_)
+            else:
+                config = self._local_config(environment, plan_)
+                command = [sys.executable, "-m", *participant_command(PROGRAM, config)]
+                node = ProcessComponent(
+                    command, name=config.name, start_timeout=self.start_timeout
+                ).start(environment)
         except BaseException:
             collector.forget(plan_.topic, plan_.log_topic)
             raise
-        return FMUNode(name, self.where, node, plan_, records, lines)
+        return FMUNode(plan_.config.name, self.where, node, plan_, kept, lines)
 
-    def _start(self, environment: LocalEnvironment, plan_: Plan) -> Node:
+    def _local_config(self, environment: LocalEnvironment, plan_: Plan) -> FMUConfig:
+        """The configuration for this machine: the FMU extracted (and compiled) in the run."""
         config = plan_.config
-        name = config.name
-        if self.where == "container":
-            return self._start_container(environment, plan_)
+        workdir = environment.run_dir / f"{config.name}.fmu.d"
         path = config.path
         if not plan_.model.runnable_here:
-            path = str(prepare(plan_.model, environment.run_dir / f"{name}.fmu.d"))
+            path = str(prepare(plan_.model, workdir))
+        return msgspec.structs.replace(config, path=path, workdir=str(workdir))
+
+    def _start_in_process(
+        self, environment: LocalEnvironment, plan_: Plan
+    ) -> tuple[FMUParticipant, Node]:
         config = msgspec.structs.replace(
-            config, path=path, workdir=str(environment.run_dir / f"{name}.fmu.d")
+            self._local_config(environment, plan_),
+            log_file=str(environment.run_dir / f"{plan_.config.name}.log"),
         )
-        if self.where == "process":
-            command = [sys.executable, "-m", *participant_command(PROGRAM, config)]
-            return ProcessComponent(command, name=name, start_timeout=self.start_timeout).start(
-                environment
-            )
-        config = msgspec.structs.replace(config, log_file=str(environment.run_dir / f"{name}.log"))
-        resolved = dataclasses.replace(plan_, config=config)
-        return InProcessComponent(lambda: FMUParticipant(config, resolved), name).start(environment)
+        participant = FMUParticipant(
+            config,
+            dataclasses.replace(plan_, config=config),
+            keep_log=True,
+            keep_history=self.history,
+        )
+        node = InProcessComponent(lambda: participant, config.name).start(environment)
+        return participant, node
 
     def _start_container(self, environment: LocalEnvironment, plan_: Plan) -> Node:
         try:
@@ -257,8 +275,8 @@ class FMUNode:
         where: Where,
         node: Node,
         plan: Plan,
-        records: list[Delivery] | None,
-        lines: list[Delivery],
+        records: list[Any] | None,
+        lines: list[Any] | None,
     ) -> None:
         self.name = name
         self.where: Where = where
@@ -285,11 +303,7 @@ class FMUNode:
         """Every record published so far, typed (see :mod:`multicosim.fmi.messages`)."""
         if self._records is None:
             raise MulticosimError(f"FMU {self.name!r} keeps no history (history=False)")
-        tp = self.plan.record_type
-        return [
-            d.obj if type(d.obj) is tp else decode(d.data, tp, what=f"{self.name}'s record")
-            for d in self._records
-        ]
+        return _typed(self._records, self.plan.record_type, f"{self.name}'s record")
 
     def result(self, variables: Sequence[str] | None = None) -> Any:
         """The records as fmpy.simulate_fmu returns its result: a ``SimulationResult`` with
@@ -322,9 +336,7 @@ class FMUNode:
 
     def log(self) -> list[LogLine]:
         """The FMU's log messages so far (its logger callback), oldest first."""
-        return [
-            d.obj if isinstance(d.obj, LogLine) else decode(d.data, LogLine) for d in self._lines
-        ]
+        return _typed(self._lines or [], LogLine, f"{self.name}'s log")
 
     def trace_options(self) -> TraceOptions:
         """Its channels for a trace: the record's type (schema from the model description,
@@ -351,6 +363,14 @@ class FMUNode:
 
     def __repr__(self) -> str:
         return f"FMUNode({self.name!r}, where={self.where!r}, model={self.model.name!r})"
+
+
+def _typed(kept: list[Any], tp: Any, what: str) -> list[Any]:
+    """Messages kept in this process (objects) or from a scheduler's traffic (deliveries)."""
+    return [
+        d if type(d) is tp else d.obj if type(d.obj) is tp else decode(d.data, tp, what=what)
+        for d in kept
+    ]
 
 
 @dataclasses.dataclass(frozen=True)

@@ -107,9 +107,20 @@ class Reader:
                 slots.append((position, offset, size if v.is_array else 0))
                 offset += size
             self._groups.append((call, args, values, slots, suffix == "Boolean" and not fmi3))
+        # The common case, scalars of one type in order: the buffer is the answer.
+        self._plain: tuple[Callable[..., Any], tuple[Any, ...], Any] | None = None
+        if len(self._groups) == 1 and not self._slow:
+            call, args, values, slots, as_bool = self._groups[0]
+            if not as_bool and slots == [(i, i, 0) for i in range(self._count)]:
+                self._plain = (call, args, values)
 
     def __call__(self) -> list[Any]:
         """The current values."""
+        plain = self._plain
+        if plain is not None:
+            plain[0](*plain[1])
+            values: list[Any] = plain[2][:]
+            return values
         out: list[Any] = [None] * self._count
         for call, args, values, slots, as_bool in self._groups:
             call(*args)

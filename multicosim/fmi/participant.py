@@ -35,12 +35,32 @@ log = logging.getLogger(__name__)
 
 
 class FMUParticipant:
-    """An FMU as a participant (``period``, ``setup``, ``step``, ``close``)."""
+    """An FMU as a participant (``period``, ``setup``, ``step``, ``close``).
 
-    def __init__(self, config: FMUConfig, resolved: Plan | None = None) -> None:
+    ``keep_log`` and ``keep_history`` keep what it publishes in :attr:`log_lines` and
+    :attr:`history` (its records) too, for a node in the same process.
+    """
+
+    def __init__(
+        self,
+        config: FMUConfig,
+        resolved: Plan | None = None,
+        *,
+        keep_log: bool = False,
+        keep_history: bool = False,
+    ) -> None:
         self.config = config
         self.plan = resolved or plan(config)
         self.period = config.period
+        # What it publishes may stay here too, for a node in this process to read without a
+        # scheduler tap: its log lines, and its records.
+        self.log_lines: list[LogLine] | None = [] if keep_log else None
+        self.history: list[Any] | None = [] if keep_history else None
+        # What every step reads, looked up once.
+        self._times = (config.start_time, config.period, config.stop_time)
+        self._topic = self.plan.topic
+        self._record_type = self.plan.record_type
+        self._outputs = self.plan.outputs
         self.instance: Instance | None = None
         self.steps = 0
         self.done = False
@@ -110,22 +130,23 @@ class FMUParticipant:
             return
         instance = self.instance
         assert instance is not None, "setup() was not called"
-        config = self.config
         n = self.steps
+        start, period, stop = self._times
         # As fmpy.simulate_fmu: the n-th point is start + n * period, computed afresh.
-        time = config.start_time + n * config.period if n else config.start_time
-        stop = config.stop_time
-        if stop is not None and time > stop:  # the last step was cut short at the stop time
-            time = stop
+        time = start + n * period if n else start
+        until = start + (n + 1) * period
+        finished = self._ending
+        if stop is not None:
+            if time > stop:  # the last step was cut short at the stop time
+                time = stop
+            finished = finished or time >= stop or math.isclose(time, stop)
+            if until > stop and not math.isclose(until, stop):
+                until = stop
         if self._ending:  # the FMU ended the run, at its last successful time
             time = instance.time
         # Read before any FMI call: a message that does not decode is the publisher's
         # fault (a TransportError naming the topic), not the FMU's.
         arrived = [(set_value, sub.messages) for sub, set_value in self._inputs]
-        finished = self._ending or (stop is not None and (time >= stop or math.isclose(time, stop)))
-        until = config.start_time + (n + 1) * config.period
-        if stop is not None and until > stop and not math.isclose(until, stop):
-            until = stop
         try:
             for set_value, messages in arrived:
                 if messages:
@@ -137,8 +158,11 @@ class FMUParticipant:
             error = instance.failure(exc, "step", time)
             self._failed(ctx, error)
             raise error from exc
-        ctx.publish(self.plan.topic, self.plan.record_type(time, *values))
-        for index, topic in self.plan.outputs:
+        record = self._record_type(time, *values)
+        ctx.publish(self._topic, record)
+        if self.history is not None:
+            self.history.append(record)
+        for index, topic in self._outputs:
             ctx.publish(topic, values[index])
         if finished:
             self._finish(ctx)
@@ -187,7 +211,10 @@ class FMUParticipant:
         """Publish the log lines kept since the last step on the log topic."""
         lines, self._lines = self._lines, []
         for label, category, message in lines:
-            ctx.publish(self.plan.log_topic, LogLine(label, category, message))
+            line = LogLine(label, category, message)
+            ctx.publish(self.plan.log_topic, line)
+            if self.log_lines is not None:
+                self.log_lines.append(line)
 
     # -- the end --------------------------------------------------------------------------
 
