@@ -1,6 +1,6 @@
 """Run every benchmark, print one table, write bench/results/all.json, update the README.
 
-    python -m bench                  # the full run (about 3 minutes on 2 cores)
+    python -m bench                  # the full run (about 6 minutes on 2 cores)
     python -m bench --quick          # a shorter run (about 1 minute)
     python -m bench --only rover,trace   # some benchmarks: table only
     python -m bench --only ardupilot --merge   # re-measure some, keep the others' figures
