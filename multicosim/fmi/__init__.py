@@ -18,13 +18,15 @@ FMU; its model description is the contract, checked before anything starts
 
 Modules: :mod:`.model` (the model description), :mod:`.config` (the checked configuration),
 :mod:`.instance` (the FMI calls, through FMPy), :mod:`.participant` (the stepped program),
-:mod:`.messages` (record, values and log on topics), :mod:`.component` (the component, its
-node and image), :mod:`.simulate`, :mod:`.errors`.
+:mod:`.messages` (record, values and log on topics), :mod:`.component` (the component and
+its node), :mod:`.build` (a binary from the sources, the container image), :mod:`.simulate`,
+:mod:`.errors`.
 """
 
 from __future__ import annotations
 
-from .component import FMU, WHERE, FMUNode, Where, build_image
+from .build import build_image
+from .component import FMU, WHERE, FMUNode, Where
 from .config import SOLVERS, FMUConfig, Solver
 from .errors import FMUError
 from .messages import LogLine

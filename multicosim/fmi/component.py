@@ -4,29 +4,23 @@
 from __future__ import annotations
 
 import dataclasses
-import hashlib
-import json
 import os
 import re
-import shutil
-import subprocess
 import sys
-import tempfile
 import weakref
 from collections.abc import Iterable, Mapping, Sequence
-from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
 import msgspec
 import numpy as np
 
 from ..core.clock import Delivery, Scheduler
-from ..core.errors import ConfigurationError, MulticosimError, NodeStartError
+from ..core.errors import ConfigurationError, MulticosimError
 from ..core.interfaces import Node
 from ..core.messages import decode
-from ..core.version import __version__
 from ..local import InProcessComponent, LocalEnvironment, ProcessComponent, participant_command
 from ..local.waits import DEFAULT_START_TIMEOUT, check_timeout
+from .build import IN_IMAGE, build_image, image_entry, no_binary, prepare
 from .config import (
     PARAMETERS,
     SETTABLE,
@@ -45,16 +39,12 @@ from .participant import PROGRAM, FMUParticipant
 if TYPE_CHECKING:
     from ..trace import TraceOptions
 
-__all__ = ["FMU", "WHERE", "FMUNode", "Where", "build_image", "default_name", "prepare"]
+__all__ = ["FMU", "WHERE", "FMUNode", "Where", "default_name"]
 
 Where = Literal["in-process", "process", "container"]
 # Where an FMU component runs: in the simulation's process (fastest, but a crash of the
 # FMU's native code ends the process), a local process, or a container of its own image.
 WHERE: tuple[Where, ...] = ("in-process", "process", "container")
-
-# Where a container finds its FMU (images/fmu/Dockerfile copies it there).
-_IN_IMAGE = "/opt/fmu"
-_COMPILE_TIMEOUT = 300.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -108,7 +98,7 @@ class FMU:
         if self.where not in WHERE:
             raise ConfigurationError("where", self.where, f"one of {WHERE}")
         if not model.runnable_here and not self.compile:
-            raise ConfigurationError("path", str(self.path), _no_binary(model))
+            raise ConfigurationError("path", str(self.path), no_binary(model))
         if self.compile and not model.runnable_here and not model.has_sources:
             raise ConfigurationError(
                 "compile", True, f"an FMU with C sources to compile ({model.label} has none)"
@@ -250,7 +240,7 @@ class FMU:
                 "no containers: use where='process' or 'in-process'",
             )
         image = self.image or build_image(plan_.model.path, compile=self.compile)
-        inside = f"{_IN_IMAGE}/{_image_entry(plan_.model)}"
+        inside = f"{IN_IMAGE}/{image_entry(plan_.model)}"
         config = msgspec.structs.replace(plan_.config, path=inside)
         return ContainerComponent(
             image,
@@ -439,110 +429,6 @@ def _collector(scheduler: Scheduler) -> _Collector:
     return found
 
 
-# -- binaries, images ----------------------------------------------------------------------------
-
-
 def default_name(model: Model) -> str:
     """The name an FMU component gets unless given one: its file's stem."""
     return re.sub(r"[^A-Za-z0-9_.-]", "_", model.path.stem) or "fmu"
-
-
-def _no_binary(model: Model) -> str:
-    from fmpy import platform
-
-    others = [p for p in model.platforms if p != "c-code"] or ["none"]
-    text = f"an FMU with a binary for this platform ({platform}); {model.label} has binaries for: "
-    text += ", ".join(others)
-    if model.has_sources:
-        return (
-            f"{text}; it carries C sources: compile=True builds a binary with FMPy "
-            "(needs cmake and a C compiler)"
-        )
-    return text + ", and no C sources to build one from"
-
-
-def prepare(model: Model, directory: Path) -> Path:
-    """The FMU extracted into ``directory`` with a binary compiled from its sources by FMPy.
-
-    NodeStartError (with the compiler's output) if the build fails or takes longer than
-    five minutes.
-    """
-    from fmpy import extract
-
-    directory.mkdir(parents=True, exist_ok=True)
-    unzipped = directory / "fmu"
-    if model.path.is_dir():
-        shutil.copytree(model.path, unzipped, dirs_exist_ok=True)
-    else:
-        extract(str(model.path), str(unzipped))
-    build = directory / "build"
-    build.mkdir(exist_ok=True)
-    script = (
-        "import json, sys, fmpy.build; fmpy.build.build_platform_binary("
-        "sys.argv[1], build_dir=sys.argv[2], cmake_options=json.loads(sys.argv[3]))"
-    )
-    options = {}
-    if model.fmi_version.startswith("3"):
-        # FMPy 0.3.32 defines an empty function prefix on Windows only: elsewhere the FMI 3
-        # functions of a source FMU keep the model identifier's prefix, and FMPy finds none.
-        options["CMAKE_C_FLAGS:STRING"] = "-DFMI3_FUNCTION_PREFIX="
-    # FMPy runs cmake, which its PyPI dependency puts beside this interpreter.
-    env = {
-        **os.environ,
-        "PATH": os.pathsep.join([str(Path(sys.executable).parent), os.environ.get("PATH", "")]),
-    }
-    try:
-        done = subprocess.run(
-            [sys.executable, "-c", script, str(unzipped), str(build), json.dumps(options)],
-            capture_output=True,
-            text=True,
-            timeout=_COMPILE_TIMEOUT,
-            env=env,
-            check=False,
-        )
-    except subprocess.TimeoutExpired as exc:
-        raise NodeStartError(
-            model.name, f"could not be compiled within {_COMPILE_TIMEOUT:g} s"
-        ) from exc
-    finally:
-        shutil.rmtree(build, ignore_errors=True)
-    if done.returncode != 0:
-        tail = "\n".join((done.stdout + done.stderr).splitlines()[-30:])
-        raise NodeStartError(
-            model.name, "could not be compiled from its C sources with FMPy", log_tail=tail
-        )
-    return unzipped
-
-
-def _image_entry(model: Model) -> str:
-    return "model" if model.path.is_dir() or not model.runnable_here else model.path.name
-
-
-def build_image(path: str | os.PathLike[str], *, compile: bool = False, force: bool = False) -> str:
-    """Build the image of the FMU at ``path`` (the runtime image with FMPy, the FMU copied
-    to /opt/fmu); return its tag. Built locally like every multicosim image (never pulled);
-    skipped when it exists for the same FMU. ``compile`` builds its binary from its C sources
-    first (on this machine, with FMPy), where it has none for this platform."""
-    from ..docker import build_derived
-
-    model = describe(path)
-    if not model.runnable_here and not compile:
-        raise ConfigurationError("path", str(path), _no_binary(model))
-    digest = _content_digest(model.path)
-    slug = re.sub(r"[^a-z0-9_.-]", "-", model.path.stem.lower()).strip("-.") or "fmu"
-    tag = f"multicosim/fmu-{slug}:{__version__}-{digest[:12]}"
-    entry = _image_entry(model)
-    if model.runnable_here:
-        return build_derived("fmu", {f"fmu/{entry}": model.path}, tag=tag, force=force)
-    with tempfile.TemporaryDirectory(prefix="mcs-fmu-compile-") as tmp:
-        compiled = prepare(model, Path(tmp))
-        return build_derived("fmu", {f"fmu/{entry}": compiled}, tag=tag, force=force)
-
-
-def _content_digest(path: Path) -> str:
-    h = hashlib.sha256()
-    files = sorted(p for p in path.rglob("*") if p.is_file()) if path.is_dir() else [path]
-    for file in files:
-        h.update(str(file.relative_to(path) if path.is_dir() else file.name).encode() + b"\0")
-        h.update(file.read_bytes())
-    return h.hexdigest()

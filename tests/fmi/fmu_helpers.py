@@ -8,7 +8,7 @@ import shutil
 from pathlib import Path
 
 from multicosim import fmi
-from multicosim.fmi.component import prepare
+from multicosim.fmi.build import prepare
 
 FAULT_TIME = 0.5
 
