@@ -28,7 +28,7 @@ import mujoco
 from _common import docker_reason, write_result
 
 import multicosim.rover as rover
-from multicosim.physics import Physics, RoverVehicle
+from multicosim.physics import Physics
 
 # About 60 s of simulated time: wait, 50 m, a right-angle turn, 55 m and stop, at 2 m/s.
 MISSION = rover.Mission(
@@ -73,7 +73,7 @@ def raw_mujoco(fidelity: rover.Fidelity, duration: float, repeat: int = 3) -> di
     for label, batch in (("one_call_s", total), ("per_period_s", per_period)):
         times = []
         for _ in range(repeat):  # best of several: the first run pays for cold caches
-            physics = Physics.from_xml_path(RoverVehicle.model_path, config)
+            physics = Physics.from_xml_path(rover.RoverVehicle.model_path, config)
             physics.data.ctrl[:] = rover.ackermann(2.0, 0.0)
             model, data = physics.model, physics.data
             t0 = time.perf_counter()
