@@ -1,6 +1,6 @@
 """Run every benchmark, print one table, write bench/results/all.json, update the README.
 
-    python -m bench                  # the full run (about 3 minutes on 2 cores)
+    python -m bench                  # the full run (about 6 minutes on 2 cores)
     python -m bench --quick          # a shorter run (about 1 minute)
     python -m bench --only rover,trace   # some benchmarks: table only
     python -m bench --only ardupilot --merge   # re-measure some, keep the others' figures
@@ -38,6 +38,7 @@ START, END = "<!-- bench:start -->", "<!-- bench:end -->"
 # Run order: the cheap, noise-sensitive ones first.
 BENCHMARKS = (
     "transport",
+    "fmi",
     "trace",
     "rover",
     "px4",
@@ -438,7 +439,73 @@ BUILDERS: dict[str, Callable[[dict[str, dict[str, Any]]], list[Row]]] = {
     "throughput": lambda r: throughput_rows(r["throughput"]),
     "scaling": lambda r: scaling_rows(r["scaling"]),
     "campaign": lambda r: campaign_rows(r["campaign"]),
+    "fmi": lambda r: fmi_rows(r["fmi"]),
 }
+
+
+def fmi_rows(data: dict[str, Any]) -> list[Row]:
+    """FMUs as components: in-process against FMPy's own loop, as a process, growth."""
+    group = "FMU components"
+    if "skipped" in data:
+        return [row(group, "FMU components", "skipped", limit=data["skipped"])]
+    target = data["target_ratio"]
+    rows = []
+    for r in data["in_process"]:
+        us = r["per_step_us"]
+        met = r["ratio"] <= target
+        rows.append(
+            row(
+                group,
+                f"per step (CPU), in-process / FMPy's own co-simulation loop ({r['fmu']}, 10 ms)",
+                f"{us['multicosim']:.1f} us / {us['fmpy']:.1f} us",
+                ratio=r["ratio"],
+                target=f"<= {target:g}",
+                met=met,
+                limit=""
+                if met
+                else "the lockstep scheduler's step, the record published every step and the "
+                "topic routing come on top of the same FMI calls",
+            )
+        )
+    p = data["process"]
+    s = p["stats"]
+    rows.append(
+        row(
+            group,
+            f"per step, as a process / raw ROUTER-DEALER round trip ({p['fmu']})",
+            f"{s['FMU as a process']['median_us']:.0f} us / "
+            f"{s['raw ROUTER/DEALER']['median_us']:.0f} us",
+            ratio=p["ratio"],
+            limit=f"the lockstep exchange of a participant process that does nothing takes "
+            f"{s['idle participant as a process']['median_us']:.0f} us here and the FMU's own "
+            f"step {s['FMU in-process']['median_us']:.0f} us in-process",
+        )
+    )
+    linear = 1.1
+    for where, g in data["growth"].items():
+        first, last = g["points"][0], g["points"][-1]
+        met = g["exponent"] <= linear
+        rows.append(
+            row(
+                group,
+                f"{'CPU' if where == 'in-process' else 'wall'} time vs 1-16 FMUs in one "
+                f"simulation, {where}",
+                f"exponent {g['exponent']:.2f} ({first['per_fmu_step_us']:.1f} -> "
+                f"{last['per_fmu_step_us']:.1f} us per FMU step)",
+                ratio=g["exponent"],
+                target=f"linear (<= {linear})",
+                met=met,
+                limit=""
+                if met
+                else (
+                    "each FMU is one more process on the same 2 cores: context switches "
+                    "grow with the number of runnable processes"
+                    if where == "process"
+                    else "the scheduler looks for the next member among all of them at every step"
+                ),
+            )
+        )
+    return rows
 
 
 def sitl_rows(data: dict[str, Any]) -> list[Row]:

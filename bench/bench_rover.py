@@ -74,7 +74,7 @@ def raw_mujoco(fidelity: rover.Fidelity, duration: float, repeat: int = 3) -> di
     for label, batch in (("one_call_s", total), ("per_period_s", per_period)):
         times = []
         for _ in range(repeat):  # best of several: the first run pays for cold caches
-            physics = Physics.from_xml_path(RoverVehicle.model_path, config)
+            physics = Physics.from_xml_path(rover.RoverVehicle.model_path, config)
             physics.data.ctrl[:] = rover.ackermann(2.0, 0.0)
             model, data = physics.model, physics.data
             t0 = time.perf_counter()

@@ -164,3 +164,43 @@ def test_the_short_module_names_are_the_same_objects(short: str, home: str, name
     assert getattr(importlib.import_module(short), name) is getattr(
         importlib.import_module(home), name
     )
+
+
+FMI_EXPECTED = {
+    "FMU",
+    "FMUConfig",
+    "FMUError",
+    "FMUNode",
+    "FMUParticipant",
+    "INTERFACES",
+    "Interface",
+    "LogLine",
+    "Model",
+    "PROGRAM",
+    "SOLVERS",
+    "Solver",
+    "Variable",
+    "WHERE",
+    "Where",
+    "build_image",
+    "default_step",
+    "describe",
+    "participant",
+    "simulate",
+}
+
+
+def test_fmi_exports_the_intended_names_and_loads_fmpy_on_use() -> None:
+    import multicosim.fmi as fmi
+
+    assert set(fmi.__all__) == FMI_EXPECTED
+    for name in fmi.__all__:
+        assert getattr(fmi, name) is not None, name
+    assert issubclass(fmi.FMUError, mcs.NodeError)
+    assert fmi.FMUError.__module__ == "multicosim.fmi"
+    code = (
+        "import sys, multicosim.fmi; "
+        "print([m for m in ('fmpy', 'docker', 'mujoco', 'mcap') if m in sys.modules])"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"

@@ -108,6 +108,23 @@ def test_pytest_listing_passes(pytester: pytest.Pytester) -> None:
     result.stdout.fnmatch_lines(["*fidelity 'high' not in the test's levels (low, medium)*"])
 
 
+def test_fmu_listing_runs(reference_fmus: Path) -> None:
+    listing = 'FMUS = "../shared/reference-fmus"'
+    code = _block(listing).replace('"../shared/reference-fmus"', repr(str(reference_fmus)))
+    namespace = _run(listing, code=code)
+    # At rest y = u = 0.5 (1 - y): a third, on every axis.
+    assert namespace["result"]["y"][-1] == pytest.approx([1 / 3] * 3, abs=1e-6)
+
+
+def test_fmu_pytest_listing_passes(
+    pytester: pytest.Pytester, reference_fmus: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("MCS_REFERENCE_FMUS", str(reference_fmus))
+    pytester.makepyfile(_block("def test_the_ball_stays_above_the_floor"))
+    result = pytester.runpytest("--mcs-fidelity=low,medium")
+    result.assert_outcomes(passed=2)
+
+
 def test_px4_listing_runs() -> None:
     result = _run("simulator = px4.PX4(world")["result"]
     assert result.completed, result.reason

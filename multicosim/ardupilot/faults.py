@@ -29,7 +29,15 @@ from typing import Any
 
 import msgspec
 
-from ..attacks.models import Additive, Delay, Dropout, Model, Offsets, check_models
+from ..attacks.models import (
+    Additive,
+    Delay,
+    Dropout,
+    Model,
+    Offsets,
+    check_models,
+    subscribe_streams,
+)
 from ..core.errors import ConfigurationError, MulticosimError
 from ..core.geo import Home, LocalProjection
 from ..core.interfaces import Node
@@ -121,8 +129,11 @@ class SimulatedFaults:
         self.updates = 0
 
     def setup(self, ctx: StepContext) -> None:
-        """Subscribe to ArduPilot's MAVLink (for its PARAM_VALUE echoes)."""
+        """Subscribe to ArduPilot's MAVLink (for its PARAM_VALUE echoes), and to the topics
+        of Stream models."""
         self._down = ctx.subscribe(self.config.downlink, MavlinkPacket)
+        if self._offsets is not None:
+            subscribe_streams(ctx, self.config.models, [self._offsets])
 
     def wanted(self, time: float, rng: Any) -> dict[str, float]:
         """The fault parameters' values at simulated ``time``."""

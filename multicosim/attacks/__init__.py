@@ -17,7 +17,8 @@ injector reads it there, corrupts it with seeded, combinable models, each active
         trajectory = simulation.controller.send(rover.Mission(speed=3.0))
 
 Models: :class:`Gaussian` noise, :class:`Bias`, random-walk :class:`Drift`, :class:`Jump`
-(a spoof, optionally ramped), :class:`Dropout`, :class:`Delay`. Sensors: the rover's
+(a spoof, optionally ramped), :class:`Stream` (an offset another component publishes, such
+as an FMU's environment model), :class:`Dropout`, :class:`Delay`. Sensors: the rover's
 ``position`` (alias ``gps``), ``magnetometer``, ``imu``, ``wheel_speed``; PX4's ``gps``,
 ``mag``, ``baro``, ``imu``; a vehicle of your own registers its sensors with
 :func:`register`. Quantities (what additive models offset, ``on=``): positions in
@@ -28,7 +29,19 @@ from __future__ import annotations
 
 from ._injector import PROGRAM, InjectorComponent, InjectorConfig, SensorInjector, injector
 from ._scenarios import SimulatesFaults, add_injector, inject
-from .models import Additive, Bias, Delay, Drift, Dropout, Gaussian, Jump, Model, Window, is_zero
+from .models import (
+    Additive,
+    Bias,
+    Delay,
+    Drift,
+    Dropout,
+    Gaussian,
+    Jump,
+    Model,
+    Stream,
+    Window,
+    is_zero,
+)
 from .sensors import ALIASES, SENSORS, Quantity, Sensor, canonical, register, sensor, vehicles
 
 __all__ = [
@@ -49,6 +62,7 @@ __all__ = [
     "Sensor",
     "SensorInjector",
     "SimulatesFaults",
+    "Stream",
     "Window",
     "add_injector",
     "canonical",

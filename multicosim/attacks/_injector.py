@@ -26,7 +26,15 @@ from ..core.errors import ConfigurationError
 from ..core.interfaces import Node
 from ..local import InProcessComponent, LocalEnvironment, ProcessComponent, participant_command
 from ..mavlink.hil import Wire
-from .models import Additive, Delay, Dropout, Model, Offsets, check_models
+from .models import (
+    Additive,
+    Delay,
+    Dropout,
+    Model,
+    Offsets,
+    check_models,
+    subscribe_streams,
+)
 from .sensors import Sensor, canonical, load, module_of, sensor
 
 if TYPE_CHECKING:
@@ -130,8 +138,9 @@ class SensorInjector:
         self._held: deque[tuple[int, Any]] = deque()
 
     def setup(self, ctx: StepContext) -> None:
-        """Subscribe to the raw topic."""
+        """Subscribe to the raw topic (and to the topics of Stream models)."""
         self._sub = ctx.subscribe(self.config.source, self.sensor.payload_type(self.config.wire))
+        subscribe_streams(ctx, self.config.models, self._offsets.values())
 
     def step(self, ctx: StepContext) -> None:
         """Corrupt what arrived since the last step; publish what is due."""

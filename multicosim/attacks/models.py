@@ -3,7 +3,8 @@
 Every model is a frozen msgspec Struct (a configuration that travels as JSON to an injector
 process), validated on construction, and active from ``start`` until ``end`` (simulated
 seconds; ``end=None``: to the end of the run). Additive models (:class:`Gaussian`,
-:class:`Bias`, :class:`Drift`, :class:`Jump`) change one quantity of the reading (``on``;
+:class:`Bias`, :class:`Drift`, :class:`Jump`, and :class:`Stream`, whose offset another
+component computes) change one quantity of the reading (``on``;
 None: the sensor's default, e.g. the GPS position in metres east/north/up); a value is a
 number (the same on every axis) or one number per axis. :class:`Dropout` and :class:`Delay`
 act on whole messages. Random models draw from the injector's seeded generator (``ctx.rng``),
@@ -13,8 +14,8 @@ so a seed gives the same corrupted readings every time.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
-from typing import TYPE_CHECKING, Union
+from collections.abc import Iterable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Protocol, Union
 
 import msgspec
 
@@ -32,10 +33,19 @@ __all__ = [
     "Gaussian",
     "Jump",
     "Model",
+    "Stream",
     "Value",
     "Window",
     "is_zero",
 ]
+
+
+class Latest(Protocol):
+    """Where a Stream's latest value is read (a Subscription)."""
+
+    @property
+    def latest(self) -> Any: ...
+
 
 # A number for every axis, or one number per axis.
 Value = Union[float, tuple[float, ...]]  # noqa: UP007 - msgspec reads this alias at run time
@@ -162,6 +172,25 @@ class Jump(Additive, frozen=True, kw_only=True, tag="jump"):
         return {"offset": _values("offset", self.offset)}
 
 
+class Stream(Additive, frozen=True, kw_only=True, tag="stream"):
+    """An offset another component computes: the latest value published on ``topic`` (one
+    number for every axis, or one per axis), times ``scale``; none before the first.
+
+    The component (an FMU modelling the environment, a controller of your own) publishes
+    as it steps; the injector adds its latest value to each reading, so an environment
+    model runs at its own rate beside the world's sensors.
+    """
+
+    topic: str = ""
+    scale: float = 1.0
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if not isinstance(self.topic, str) or not self.topic or self.topic != self.topic.strip():
+            raise ConfigurationError("topic", self.topic, "a non-empty topic name")
+        _finite("scale", self.scale, "a finite number")
+
+
 class Dropout(Window, frozen=True, kw_only=True, tag="dropout"):
     """No reading at all while active (a lost fix, a dead sensor)."""
 
@@ -178,8 +207,10 @@ class Delay(Window, frozen=True, kw_only=True, tag="delay"):
             raise ConfigurationError("delay", self.delay, "a duration >= 0 s")
 
 
-Model = Union[Gaussian, Bias, Drift, Jump, Dropout, Delay]  # noqa: UP007 - msgspec tagged union
-MODEL_TYPES: tuple[type[Window], ...] = (Gaussian, Bias, Drift, Jump, Dropout, Delay)
+Model = Union[Gaussian, Bias, Drift, Jump, Stream, Dropout, Delay]  # noqa: UP007 - tagged union
+MODEL_TYPES: tuple[type[Window], ...] = (Gaussian, Bias, Drift, Jump, Stream, Dropout, Delay)
+# What a Stream's topic carries: one number for every axis, or one per axis.
+StreamValue = Union[float, list[float]]  # noqa: UP007 - msgspec reads this alias at run time
 
 
 def is_zero(model: Model) -> bool:
@@ -188,6 +219,8 @@ def is_zero(model: Model) -> bool:
         return False
     if isinstance(model, Delay):
         return model.delay == 0.0
+    if isinstance(model, Stream):
+        return model.scale == 0.0
     return all(v == 0.0 for vector in model.vectors().values() for v in vector)
 
 
@@ -220,6 +253,16 @@ def check_models(
     return models
 
 
+def subscribe_streams(ctx: Any, models: Sequence[Model], offsets: Iterable[Offsets]) -> None:
+    """Subscribe ``ctx`` (a StepContext) to the topics of the :class:`Stream` models and
+    hand the subscriptions to ``offsets`` (in a participant's ``setup``)."""
+    streams = {
+        m.topic: ctx.subscribe(m.topic, StreamValue) for m in models if isinstance(m, Stream)
+    }
+    for each in offsets:
+        each.streams = streams
+
+
 def broadcast(field: str, values: Sequence[float], size: int, quantity: str) -> tuple[float, ...]:
     """``values`` (one number, or one per axis) as ``size`` numbers; raise if it cannot be."""
     if len(values) == size:
@@ -232,10 +275,16 @@ def broadcast(field: str, values: Sequence[float], size: int, quantity: str) -> 
 
 
 class Offsets:
-    """The run-time state of the additive models on one quantity (random walks, ...)."""
+    """The run-time state of the additive models on one quantity (random walks, ...).
+
+    ``streams`` gives the latest value of each :class:`Stream` model's topic (the
+    injector's subscriptions).
+    """
 
     def __init__(self, models: Sequence[Additive], size: int, quantity: str) -> None:
         self.size = size
+        self.quantity = quantity
+        self.streams: Mapping[str, Latest] = {}
         self._models = list(models)
         self._params = [
             {k: broadcast(k, v, size, quantity) for k, v in m.vectors().items()} for m in models
@@ -272,6 +321,14 @@ class Offsets:
             return [m + s * d for m, s, d in zip(mean, std, draws, strict=True)]
         if isinstance(model, Bias):
             return list(p["offset"]) if any(p["offset"]) else None
+        if isinstance(model, Stream):
+            source = self.streams.get(model.topic)
+            value = source.latest if source is not None else None
+            if value is None:
+                return None
+            given = tuple(value) if isinstance(value, list | tuple) else (value,)
+            what = f"the value on {model.topic!r}"
+            return [model.scale * v for v in broadcast(what, given, self.size, self.quantity)]
         if isinstance(model, Jump):
             offset = p["offset"]
             if not any(offset):

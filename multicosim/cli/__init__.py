@@ -4,6 +4,7 @@
 ``multicosim participant MODULE:FACTORY``        run a participant (component side)
 ``multicosim sweep``                             remove what killed runs left behind
 ``multicosim images build``                      build the container images locally
+                                                 (``--fmu PATH``: an FMU's image too)
 ``multicosim plot TRACE.mcap``                   plot a trace to a PNG
 ``multicosim px4 sitl``                          PX4-compatible SITL on PX4's UDP ports
 ``multicosim ardupilot launch``                  (in the ArduPilot image) start ArduPilot
@@ -73,6 +74,11 @@ def _sweep(args: argparse.Namespace) -> int:
 def _images_build(args: argparse.Namespace) -> int:
     from ..docker import build_images
 
+    if args.fmu:  # a wrong path is refused before anything is built
+        from ..fmi import describe
+
+        for path in args.fmu:
+            describe(path)
     tags = build_images(
         base=args.base,
         force=args.force,
@@ -80,6 +86,11 @@ def _images_build(args: argparse.Namespace) -> int:
         px4_dir=args.px4_dir,
         ardupilot_dir=args.ardupilot_dir,
     )
+    if args.fmu:
+        from ..fmi import build_image
+
+        for path in args.fmu:
+            tags.append(build_image(path, compile=args.compile, force=args.force))
     for tag in tags:
         print(tag)
     return 0
@@ -155,6 +166,17 @@ def main(argv: list[str] | None = None) -> int:
         default=None,
         help="also build the ArduPilot image from this ArduPilot SITL directory "
         "(bin/arducopter, bin/ardurover, params/)",
+    )
+    p.add_argument(
+        "--fmu",
+        action="append",
+        metavar="PATH",
+        help="also build the image of this FMU (the runtime image with it in /opt/fmu); repeatable",
+    )
+    p.add_argument(
+        "--compile",
+        action="store_true",
+        help="with --fmu: compile a binary from the FMU's C sources where it has none for Linux",
     )
     p.set_defaults(run=_images_build)
 

@@ -2,8 +2,9 @@
 
 Requirements evaluate them (:mod:`multicosim.search.requirements`) and traces record them
 (:mod:`multicosim.trace`). A trajectory is a mapping of signal name to values plus ``times``
-(or a ``"time"`` entry), or a sequence of msgspec Structs (or dataclasses, or mappings) with a
-``time`` field, whose numeric fields become signals (a rover ``Trajectory`` is one).
+(or a ``"time"`` entry), a sequence of msgspec Structs (or dataclasses, or mappings) with a
+``time`` field, whose numeric fields become signals (a rover ``Trajectory`` is one), or a
+NumPy structured array with a ``time`` field (an FMU's result, as FMPy gives it).
 """
 
 from __future__ import annotations
@@ -51,6 +52,9 @@ def signals_of(trajectory: object, *, times: ArrayLike | None = None) -> Signals
     """
     if isinstance(trajectory, Signals):
         return trajectory
+    names = getattr(getattr(trajectory, "dtype", None), "names", None)
+    if isinstance(trajectory, np.ndarray) and names:
+        return _structured(trajectory, names, times)
     if isinstance(trajectory, Mapping):
         columns = {str(k): v for k, v in trajectory.items()}
         if times is None:
@@ -79,6 +83,29 @@ def signals_of(trajectory: object, *, times: ArrayLike | None = None) -> Signals
         times = [r["time"] for r in records]
     names = [k for k, v in first.items() if k != "time" and _numeric(v)]
     return _columns(times, {n: [r[n] for r in records] for n in names})
+
+
+def _structured(array: np.ndarray, names: Sequence[str], times: ArrayLike | None) -> Signals:
+    """A NumPy structured array (what fmpy.simulate_fmu and multicosim.fmi return): its
+    ``time`` field is the times, each numeric field a signal; an array field ``y`` of shape
+    (k,) becomes ``y[0]`` ... ``y[k-1]``."""
+    if times is None:
+        if "time" not in names:
+            raise ConfigurationError(
+                "times", None, "sample times: pass times=... or a 'time' field"
+            )
+        times = array["time"]
+    columns: dict[str, Any] = {}
+    for name in names:
+        if name == "time" or array.dtype[name].base.kind not in "biuf":
+            continue
+        values = array[name]
+        if values.ndim == 1:
+            columns[name] = values
+        else:
+            flat = values.reshape(len(array), -1)
+            columns.update({f"{name}[{i}]": flat[:, i] for i in range(flat.shape[1])})
+    return _columns(times, columns)
 
 
 def _sequence(trajectory: object) -> list[Any] | None:

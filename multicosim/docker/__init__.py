@@ -30,6 +30,7 @@ _LAZY = {
     "PX4_IMAGE": "._images",
     "ARDUPILOT_IMAGE": "._images",
     "build_px4": "._images",
+    "build_derived": "._images",
     "build_ardupilot": "._images",
     "build_images": "._images:build",
     "SweepReport": "._sweep",
@@ -56,6 +57,7 @@ __all__ = [
     "ImageMissingError",
     "SweepReport",
     "build_ardupilot",
+    "build_derived",
     "build_images",
     "build_px4",
     "engine_available",
@@ -77,6 +79,7 @@ if TYPE_CHECKING:
     from ._images import RUNTIME_IMAGE as RUNTIME_IMAGE
     from ._images import build as build_images
     from ._images import build_ardupilot as build_ardupilot
+    from ._images import build_derived as build_derived
     from ._images import build_px4 as build_px4
     from ._limits import ContainerLimits as ContainerLimits
     from ._simulator import ContainerSimulation as ContainerSimulation

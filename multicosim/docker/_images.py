@@ -18,7 +18,7 @@ import shutil
 import subprocess
 import tempfile
 import tomllib
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -34,6 +34,7 @@ __all__ = [
     "build",
     "build_ardupilot",
     "build_base",
+    "build_derived",
     "build_px4",
     "build_runtime",
     "debian_mirror",
@@ -57,7 +58,7 @@ UPSTREAM_BASE = "python:3.11-slim"
 """The Dockerfiles' default base, used when present locally."""
 
 # The runtime image carries these extras of the package (pinned in pyproject.toml).
-RUNTIME_EXTRAS = ("mujoco", "mavlink")
+RUNTIME_EXTRAS = ("mujoco", "mavlink", "fmi")
 
 LABEL_INPUTS = "multicosim.inputs"
 _BUILD_LOCK = Path(tempfile.gettempdir()) / f"multicosim-{os.getuid()}-build.lock"
@@ -344,16 +345,41 @@ def _build_firmware(
     missing = [p for p in required if not (root / p).is_file()]
     if missing:
         raise MulticosimError(f"{root} is not {what}: {', '.join(missing)} missing")
+    files = {f"{name}/{part}": root / part for part in parts}
+    for extra in ("LICENSE", "COPYING.txt"):
+        if (root / extra).is_file():
+            files[f"{name}/{extra}"] = root / extra
+    return build_derived(name, files, tag=tag, force=force, progress=progress)
+
+
+def build_derived(
+    name: str,
+    files: Mapping[str, Path],
+    *,
+    tag: str,
+    force: bool = False,
+    progress: Callable[[str], None] | None = None,
+) -> str:
+    """Build ``images/<name>/Dockerfile`` on the runtime image; return ``tag``.
+
+    ``files`` maps paths in the build context to files or directories of this machine (the
+    Dockerfile says where they go in the image). The runtime image is built first if its
+    source changed; like every build here, nothing is pulled, and an image whose inputs did
+    not change is not built again (unless ``force``). Used by the real-firmware images and
+    by ``multicosim.fmi`` (an FMU in the runtime image).
+    """
     runtime = build(force=False, progress=progress)[0]
     with open(_BUILD_LOCK, "w") as lock, tempfile.TemporaryDirectory(prefix=f"mcs-{name}-") as tmp:
         fcntl.flock(lock, fcntl.LOCK_EX)
         context = Path(tmp)
         shutil.copy(_repo_root() / "images" / name / "Dockerfile", context / "Dockerfile")
-        for part in parts:
-            shutil.copytree(root / part, context / name / part, symlinks=True)
-        for extra in ("LICENSE", "COPYING.txt"):
-            if (root / extra).is_file():
-                shutil.copy(root / extra, context / name / extra)
+        for target, source in files.items():
+            destination = context / target
+            destination.parent.mkdir(parents=True, exist_ok=True)
+            if source.is_dir():
+                shutil.copytree(source, destination, symlinks=True)
+            else:
+                shutil.copy(source, destination)
         return _build_context(context, base=runtime, tag=tag, force=force, progress=progress)
 
 

@@ -198,13 +198,50 @@ class TraceOptions:
 
 
 def trace_options(simulation: object) -> TraceOptions:
-    """The scenario's trace options of ``simulation`` (empty if it offers none)."""
-    method = getattr(simulation, "trace_options", None)
+    """The trace options of ``simulation``: its own ``trace_options()`` with those its nodes
+    offer (an FMU node's channel types, for example); empty if there are none.
+
+    Where both give a topic's type, the simulation's own wins.
+    """
+    own = _offered(simulation, "trace_options()")
+    offered = [
+        _offered(node, f"trace_options() of node {getattr(node, 'name', node)!r}")
+        for node in _nodes(simulation)
+    ]
+    found = [o for o in offered if o is not None]
+    if not found:
+        return own or TraceOptions()
+    if own is not None:
+        found.append(own)
+    types: dict[str, Any] = {}
+    for options in found:
+        types.update(options.types)
+    return TraceOptions(
+        types=types,
+        converters=[c for o in found for c in o.converters],
+        plan=own.plan if own is not None else (),
+        replaced=[t for o in found for t in o.replaced],
+        tlog=[t for o in found for t in o.tlog],
+        plots=[p for o in found for p in o.plots],
+    )
+
+
+def _offered(source: object, what: str) -> TraceOptions | None:
+    method = getattr(source, "trace_options", None)
     options = method() if callable(method) else None
-    if options is None:
-        return TraceOptions()
-    if not isinstance(options, TraceOptions):
-        raise ConfigurationError(
-            "trace_options()", options, "a multicosim.trace.TraceOptions (or None)"
-        )
+    if options is not None and not isinstance(options, TraceOptions):
+        raise ConfigurationError(what, options, "a multicosim.trace.TraceOptions (or None)")
     return options
+
+
+def _nodes(simulation: object) -> list[object]:
+    """The nodes of ``simulation`` (or of the simulation a scenario wraps)."""
+    seen: set[int] = set()
+    current: object = simulation
+    while current is not None and id(current) not in seen:
+        seen.add(id(current))
+        nodes = getattr(current, "nodes", None)
+        if isinstance(nodes, list):
+            return nodes
+        current = getattr(current, "simulation", None)
+    return []

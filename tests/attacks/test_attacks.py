@@ -57,11 +57,36 @@ class Sink:
         self.received.extend((round(ctx.time, 9), m) for m in self.sub.messages)
 
 
-def run(models: list[attacks.Model], duration: float = 2.0, seed: int = 0) -> list[Any]:
-    """The rover positions the sink received through an injector with ``models``."""
+class Environment:
+    """Another component computing an offset: publishes ``value(t)`` on ``env`` from 0.3 s."""
+
+    period = PERIOD
+
+    def __init__(self, value: Any) -> None:
+        self.value = value
+
+    def setup(self, ctx: mcs.StepContext) -> None:
+        pass
+
+    def step(self, ctx: mcs.StepContext) -> None:
+        if ctx.time >= 0.3 - 1e-9:
+            ctx.publish("env", self.value(ctx.time))
+
+
+def run(
+    models: list[attacks.Model],
+    duration: float = 2.0,
+    seed: int = 0,
+    beside: Any = None,
+    process: bool = False,
+) -> list[Any]:
+    """The rover positions the sink received through an injector with ``models``
+    (``beside``: a participant factory added before the injector)."""
     sink = Sink()
     simulator = mcs.ProcessSimulator(seed=seed)
     simulator.add(mcs.InProcessComponent(Source, name="source"))
+    if beside is not None:
+        simulator.add(mcs.InProcessComponent(beside, name="beside"))
     config = attacks.InjectorConfig(
         vehicle="rover",
         sensor="gps",
@@ -70,11 +95,31 @@ def run(models: list[attacks.Model], duration: float = 2.0, seed: int = 0) -> li
         period=PERIOD,
         models=tuple(models),
     )
-    simulator.add(attacks.InjectorComponent(config))
+    simulator.add(attacks.InjectorComponent(config, process=process))
     simulator.add(mcs.InProcessComponent(sink, name="sink"))
     with simulator.start() as simulation:
         simulation.advance(duration)
     return sink.received
+
+
+@pytest.mark.parametrize("process", [False, True])
+def test_a_stream_adds_what_another_component_publishes(process: bool) -> None:
+    models: list[attacks.Model] = [attacks.Stream(topic="env", scale=2.0, end=1.5)]
+    received = dict(
+        run(models, beside=lambda: Environment(lambda t: [t, -t, 0.0]), process=process)
+    )
+    assert (received[0.2].x, received[0.2].y) == (1.0, 2.0)  # nothing published yet
+    assert received[0.5].x == pytest.approx(1.0 + 2 * 0.5)  # published in the same instant
+    assert received[0.5].y == pytest.approx(2.0 - 2 * 0.5)
+    assert received[1.6].x == 1.0  # the window closed
+    # One number is the same on every axis.
+    received = dict(run([attacks.Stream(topic="env")], beside=lambda: Environment(lambda t: 0.5)))
+    assert (received[0.4].x, received[0.4].y, received[0.4].z) == (1.5, 2.5, 0.75)
+
+
+def test_a_stream_of_the_wrong_size_names_its_topic() -> None:
+    with pytest.raises(mcs.ConfigurationError, match="the value on 'env'"):
+        run([attacks.Stream(topic="env")], beside=lambda: Environment(lambda t: [1.0, 2.0]))
 
 
 def test_zero_models_pass_the_same_objects_in_the_same_instant() -> None:
@@ -226,6 +271,8 @@ def test_px4_gps_offsets_survive_the_mavlink_wire() -> None:
         (lambda: attacks.Jump(offset=1.0, ramp=-2.0), "ramp"),
         (lambda: attacks.Delay(delay=math.nan), "delay"),
         (lambda: attacks.Drift(std=float("inf")), "std"),
+        (lambda: attacks.Stream(topic=""), "topic"),
+        (lambda: attacks.Stream(topic="env", scale=math.inf), "scale"),
     ],
 )
 def test_bad_model_values_name_the_field(build: Any, field: str) -> None:

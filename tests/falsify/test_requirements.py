@@ -82,6 +82,25 @@ def test_a_sequence_of_structs_is_a_trajectory() -> None:
     assert set(signals_of(samples).columns) == {"alt"}
 
 
+def test_a_structured_array_is_a_trajectory() -> None:
+    # What fmpy.simulate_fmu and multicosim.fmi return: time, numbers, arrays, booleans.
+    dtype = [("time", np.float64), ("h", np.float64), ("y", np.float64, (2,)), ("on", np.bool_)]
+    result = np.array(
+        [
+            (0.0, 1.0, (0.0, 5.0), True),
+            (1.0, -0.5, (1.0, 4.0), False),
+            (2.0, 2.0, (2.0, 3.0), True),
+        ],
+        dtype=dtype,
+    )
+    signals = signals_of(result)
+    assert list(signals.columns) == ["h", "y[0]", "y[1]", "on"]
+    assert signals.times.tolist() == [0.0, 1.0, 2.0]
+    assert Requirement("always (h >= 0)").evaluate(result).robustness == -0.5
+    evaluation = Requirement("always (y1 >= 3.5)", derived={"y1": lambda s: s["y[1]"]})
+    assert evaluation.evaluate(result).robustness == pytest.approx(-0.5)
+
+
 def test_derived_signals() -> None:
     req = Requirement("always (dist <= 5)", derived={"dist": lambda s: np.hypot(s["x"], s["y"])})
     evaluation = req.evaluate({"x": [0.0, 3.0, 6.0], "y": [0.0, 4.0, 8.0]}, times=[0, 1, 2])

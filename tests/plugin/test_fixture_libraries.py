@@ -96,14 +96,15 @@ def test_our_libraries_are_registered_the_same_way() -> None:
         "px4": "pytest_multicosim.px4",
         "ardupilot": "pytest_multicosim.ardupilot",
         "gps_noise": "pytest_multicosim.gps_noise",
+        "fmi": "pytest_multicosim.fmi",
     }.items() <= named.items()
 
 
 def test_our_libraries_are_loaded(pytester: pytest.Pytester) -> None:
     pytester.makepyfile(
         test_probe="""
-        def test_probe(pytestconfig, rover_noise, px4_params, ardupilot_params, gps_noise):
-            for name in ("rover", "px4", "ardupilot", "gps_noise"):
+        def test_probe(pytestconfig, rover_noise, px4_params, ardupilot_params, gps_noise, fmu):
+            for name in ("rover", "px4", "ardupilot", "gps_noise", "fmi"):
                 assert pytestconfig.pluginmanager.has_plugin(f"pytest_multicosim.{name}")
         """
     )

@@ -1,0 +1,43 @@
+"""The error an FMU's own failure raises: which FMU, which call, what status, when."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from ..core.errors import NodeError
+
+if TYPE_CHECKING:
+    from .model import Model
+
+__all__ = ["FMUError"]
+
+
+class FMUError(NodeError):
+    """An FMU answered an FMI call with Discard, Error or Fatal (or its solver failed).
+
+    A :class:`multicosim.NodeError`: ``name`` is the component, ``function`` the FMI call
+    (``fmi2DoStep``, ``fmi3DoStep``, ...), ``status`` what it returned and ``time`` the FMU's
+    time (s) at the call. The run stops there and the instance is freed. Run as a process or a
+    container, the same failure ends the component's program, and the host reports a
+    NodeCrashedError whose log tail holds this error and the FMU's own log.
+    """
+
+    def __init__(
+        self,
+        name: str,
+        model: Model | str,
+        function: str,
+        status: str,
+        time: float,
+        *,
+        log_tail: str = "",
+    ) -> None:
+        self.function = function
+        self.status = status
+        self.time = time
+        self.fmu = model if isinstance(model, str) else model.label
+        super().__init__(
+            name,
+            f"(FMU {self.fmu}) failed: {function} returned {status} at t={time:.9g} s",
+            log_tail=log_tail,
+        )
