@@ -10,6 +10,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -172,16 +173,15 @@ DRIVE = "python -m multicosim serve multicosim.testing:drive --port {port}"
 def test_spinning_in_process_participant_times_out_like_a_process(driver: str) -> None:
     simulator = mcs.ProcessSimulator(step_timeout=1.0)
     simulator.add(mcs.InProcessComponent(Spin, name="cart"))
-    firmware: mcs.ProcessFirmwareComponent[testing.Drive, testing.DriveReport] | (
-        mcs.InProcessFirmwareComponent[testing.Drive, testing.DriveReport]
-    )
+    node_id: mcs.NodeId[Any]
     if driver == "process":
-        firmware = mcs.ProcessFirmwareComponent(
-            DRIVE, msgtype=testing.Drive, replytype=testing.DriveReport
+        node_id = simulator.add(
+            mcs.ProcessFirmwareComponent(
+                DRIVE, msgtype=testing.Drive, replytype=testing.DriveReport
+            )
         )
     else:  # the step is nested in the firmware's call, which has its own (longer) timeout
-        firmware = mcs.InProcessFirmwareComponent(testing.drive)
-    node_id = simulator.add(firmware)
+        node_id = simulator.add(mcs.InProcessFirmwareComponent(testing.drive))
     with simulator.start() as simulation:
         start = time.monotonic()
         with pytest.raises(mcs.NodeTimeoutError) as info:
