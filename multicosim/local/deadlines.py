@@ -20,15 +20,15 @@ import traceback
 from collections.abc import Callable
 from pathlib import Path
 from types import TracebackType
-from typing import ParamSpec, TypeVar
+from typing import TypeVar, TypeVarTuple
 
 __all__ = ["POLL", "Expired", "run_within"]
 
 POLL = 0.1
 """How often (wall-clock seconds) the watch thread looks at the armed deadlines."""
 
-P = ParamSpec("P")
 T = TypeVar("T")
+Ts = TypeVarTuple("Ts")
 
 
 class _Expired(BaseException):
@@ -66,24 +66,18 @@ class _Deadlines:
         self._count = itertools.count()
         self._thread: threading.Thread | None = None
 
-    def arm(self, deadline: float) -> int:
-        """Watch a call made now by this thread; return its key for :meth:`disarm`."""
-        key = next(self._count)
-        # A plain dict update (atomic under the GIL): arming costs no lock.
-        self._armed[key] = (threading.get_ident(), deadline)
-        if self._thread is None:
-            with self._lock:
-                if self._thread is None:
-                    self._thread = threading.Thread(
-                        target=self._watch, name="multicosim-deadlines", daemon=True
-                    )
-                    self._thread.start()
-        return key
+    def start(self) -> None:
+        """Start the watch thread (once per process)."""
+        with self._lock:
+            if self._thread is None:
+                self._thread = threading.Thread(
+                    target=self._watch, name="multicosim-deadlines", daemon=True
+                )
+                self._thread.start()
 
-    def disarm(self, key: int) -> None:
-        """Stop watching call ``key`` (idempotent): the watch can no longer interrupt it."""
-        if self._armed.pop(key, None) is not None:
-            return  # the usual case: the watch had not fired, and now it cannot
+    def settle(self, key: int) -> None:
+        """For a call the watch fired for: make sure its interruption cannot come later
+        (idempotent)."""
         me = threading.get_ident()
         with self._lock:  # the watch fired: it has raised, under this lock, in our thread
             if key not in self._fired or key in self._settled:
@@ -96,9 +90,7 @@ class _Deadlines:
                 _interrupt(me, None)
 
     def forget(self, key: int) -> bool:
-        """After :meth:`disarm`: whether the watch fired for call ``key``; forget the call."""
-        if key not in self._fired:  # disarmed in time: the watch can no longer add it
-            return False
+        """After :meth:`settle`: whether the watch fired for call ``key``; forget the call."""
         with self._lock:
             self._settled.discard(key)
             return self._fired.pop(key, None) is not None
@@ -109,36 +101,46 @@ class _Deadlines:
             now = time.monotonic()
             with self._lock:
                 for key, (thread, deadline) in list(self._armed.items()):
+                    # Popping is the claim: the call's own pop, or this one, wins.
                     if now > deadline and self._armed.pop(key, None) is not None:
                         self._fired[key] = thread
                         _interrupt(thread, _Expired)
 
 
 _deadlines = _Deadlines()
+# The fast path (every in-process step goes through it) binds what it touches.
+_armed = _deadlines._armed
+_next_key = _deadlines._count.__next__
+_thread_id = threading.get_ident
 
 
-def run_within(
-    deadline: float, call: Callable[P, T], *args: P.args, **kwargs: P.kwargs
-) -> T | Expired:
-    """``call(*args, **kwargs)``, interrupted once ``time.monotonic()`` passes ``deadline``.
+def run_within(deadline: float, call: Callable[[*Ts], T], *args: *Ts) -> T | Expired:
+    """``call(*args)``, interrupted once ``time.monotonic()`` passes ``deadline``.
 
     Returns the call's result, or :class:`Expired` (saying where it was) if it was
     interrupted. Calls nest: an enclosing call's deadline interrupts an inner one too, and
-    propagates out of it to its own ``run_within``.
+    propagates out of it to its own ``run_within``. Costs a few dictionary operations.
     """
-    key = _deadlines.arm(deadline)
+    key = _next_key()
+    _armed[key] = (_thread_id(), deadline)  # atomic under the GIL: arming takes no lock
+    if _deadlines._thread is None:
+        _deadlines.start()
+    fired = False
     try:
         try:
-            result = call(*args, **kwargs)
+            result = call(*args)
         finally:
-            _deadlines.disarm(key)
+            if _armed.pop(key, None) is None:  # the watch claimed it first: it fired
+                fired = True
+                _deadlines.settle(key)
     except _Expired as exc:
-        # Raised in the call or, just as it returned, in the disarm above: whose was it?
-        _deadlines.disarm(key)
+        # Raised in the call or, just as it returned, in the settling above: whose was it?
+        _deadlines.settle(key)
         if not _deadlines.forget(key):
             raise  # an enclosing call's deadline
         return Expired(_where(exc.__traceback__))
-    if _deadlines.forget(key):
+    if fired:
+        _deadlines.forget(key)
         return Expired("")  # it returned as the watch fired: late all the same
     return result
 

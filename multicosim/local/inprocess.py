@@ -183,7 +183,11 @@ class InProcessNode(Generic[ParticipantT]):
             close()
 
 
-class _BoundedLink:
+_monotonic = time.monotonic
+_unbounded_step = LocalParticipantLink.step
+
+
+class _BoundedLink(LocalParticipantLink):
     """Steps an in-process participant within the simulation's step timeout.
 
     A step that overruns it is interrupted and fails the run with the same NodeTimeoutError
@@ -191,24 +195,22 @@ class _BoundedLink:
     exception from a step is annotated with the component and the time.
     """
 
-    __slots__ = ("link", "name", "timeout")
-
-    def __init__(self, link: LocalParticipantLink, name: str, timeout: float) -> None:
-        self.link = link
-        self.name = name
+    def __init__(self, participant: Participant, ctx: StepContext, timeout: float) -> None:
+        super().__init__(participant, ctx)
         self.timeout = timeout
 
     def step(self, member: Member, time_ns: int, inbox: list[Delivery]) -> StepResult:
         try:
+            # Every in-process step passes here: the plain function, no bound method.
             result = run_within(
-                time.monotonic() + self.timeout, self.link.step, member, time_ns, inbox
+                _monotonic() + self.timeout, _unbounded_step, self, member, time_ns, inbox
             )
         except Exception as exc:
-            exc.add_note(f"in the step of component {self.name!r} at t={time_ns / 1e9:g} s")
+            exc.add_note(f"in the step of component {self.ctx.name!r} at t={time_ns / 1e9:g} s")
             raise
         if isinstance(result, Expired):
             raise NodeTimeoutError(
-                self.name,
+                self.ctx.name,
                 f"did not finish its step at t={time_ns / 1e9:g} s within {self.timeout:g} s"
                 f"{_interrupted(result)}",
             )
@@ -240,9 +242,7 @@ class InProcessComponent(Generic[ParticipantT]):
                 f"did not become ready within {self.start_timeout:g} s (it was still being "
                 f"built or set up){_interrupted(participant)}",
             )
-        link = _BoundedLink(
-            LocalParticipantLink(participant, ctx), self.name, environment.step_timeout
-        )
+        link = _BoundedLink(participant, ctx, environment.step_timeout)
         member = Member(
             self.name,
             environment.next_order(),
