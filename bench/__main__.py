@@ -31,9 +31,8 @@ from typing import Any
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
-from _common import RESULTS, ROOT, machine  # noqa: E402
+from _common import RESULTS, ROOT, machine, replace_readme_section  # noqa: E402
 
-README = ROOT / "README.md"
 START, END = "<!-- bench:start -->", "<!-- bench:end -->"
 # Run order: the cheap, noise-sensitive ones first.
 BENCHMARKS = (
@@ -742,17 +741,6 @@ PROFILE_NOTE = (
 )
 
 
-def update_readme(section: str) -> bool:
-    """Replace what lies between the README's bench markers; False if they are missing."""
-    text = README.read_text()
-    if START not in text or END not in text:
-        return False
-    head, rest = text.split(START, 1)
-    _, tail = rest.split(END, 1)
-    README.write_text(head + section + tail)
-    return True
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m bench", description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="a shorter run (about 1 min)")
@@ -835,7 +823,7 @@ def main(argv: list[str] | None = None) -> int:
     RESULTS.mkdir(parents=True, exist_ok=True)
     (RESULTS / "all.json").write_text(json.dumps(summary, indent=2) + "\n")
     if not args.no_readme:
-        if update_readme(markdown(summary)):
+        if replace_readme_section(START, END, markdown(summary)):
             print("updated the README's Performance section")
         else:
             print(f"README.md has no {START} ... {END} markers: left alone", file=sys.stderr)

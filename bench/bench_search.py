@@ -38,7 +38,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from _common import ROOT, write_result
+from _common import ROOT, replace_readme_section, write_result
 
 sys.path.insert(0, str(ROOT / "scenarios"))
 
@@ -57,7 +57,6 @@ from multicosim.search.falsify import (
     first_violation_statistics,
 )
 
-README = ROOT / "README.md"
 START, END = "<!-- search:start -->", "<!-- search:end -->"
 RATE_SAMPLES = 2000
 
@@ -373,12 +372,8 @@ def table(data: dict[str, Any]) -> str:
 
 
 def update_readme(section: str) -> None:
-    text = README.read_text()
-    head, start, rest = text.partition(START)
-    _, end, tail = rest.partition(END)
-    if not start or not end:
+    if not replace_readme_section(START, END, section):
         raise SystemExit(f"README.md has no {START} ... {END} section")
-    README.write_text(head + section + tail)
 
 
 def save(

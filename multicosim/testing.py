@@ -6,6 +6,9 @@ environment, a container image included, can run them::
     python -m multicosim participant multicosim.testing:Cart
     python -m multicosim serve multicosim.testing:drive --port {port}
 
+:class:`Faulty` misbehaves on cue (stuck in its step, exiting, raising, allocating without
+bound), for tests of how the harness reports faults (``tests/faults``).
+
 :func:`check_component` checks a component of one's own the way multicosim runs it
 (in-process and as a process: determinism for a seed, idempotent stop, nothing left
 behind), as Gymnasium's ``check_env`` checks an environment.
@@ -14,6 +17,7 @@ behind), as Gymnasium's ``check_env`` checks an environment.
 from __future__ import annotations
 
 import os
+import sys
 import time
 
 from .core.messages import Message
@@ -29,6 +33,8 @@ __all__ = [
     "Drive",
     "DriveReport",
     "Echo",
+    "Fault",
+    "Faulty",
     "Misbehave",
     "Speed",
     "Stuck",
@@ -79,7 +85,84 @@ class Cart:
         ctx.publish("state", CartState(x=self.x + noise, noise=noise))
 
 
-class Stuck:
+class Fault(Message):
+    """What :class:`Faulty` does, from simulated time ``at`` (s) on.
+
+    ``how``: ``stuck`` (its step computes forever: a busy Python loop), ``exit`` (it exits
+    with code 0), ``raise`` (its step raises RuntimeError), ``setup`` (its setup raises,
+    ``at`` unused), ``hog`` (it allocates, and touches, 32 MiB more every step, without
+    bound).
+    """
+
+    how: str
+    at: float = 0.05
+    period: float = 0.01
+
+
+HOG_CHUNK = 32 << 20  # bytes a hog adds per step
+
+
+class Faulty:
+    """A participant that misbehaves on cue, for tests of how faults are reported.
+
+    Until ``fault.at`` it steps normally (and publishes its step count on ``faulty/steps``).
+    It announces the fault first, ``HOW at t=T (pid P) [monotonic M]``: ``M`` is
+    ``time.monotonic()``, one clock for every process of a machine (containers included),
+    so a test can time how long the harness took to report the fault. A hog prints such a
+    stamp after every allocation, and when an allocation fails.
+    """
+
+    def __init__(self, fault: Fault) -> None:
+        self.fault = fault
+        self.period = fault.period
+        self.steps = 0
+        self._hoard: list[bytes] = []
+
+    def setup(self, ctx: StepContext) -> None:
+        """Raise for ``setup``; nothing to subscribe to otherwise."""
+        if self.fault.how == "setup":
+            self._announce(ctx)
+            raise RuntimeError("asked to fail in setup")
+
+    def step(self, ctx: StepContext) -> None:
+        """Step normally before ``at``; from then on, misbehave as asked."""
+        self.steps += 1
+        if ctx.time < self.fault.at or self.fault.how == "setup":
+            ctx.publish("faulty/steps", Speed(speed=float(self.steps)))
+            return
+        how = self.fault.how
+        if how == "hog":
+            self._hog(ctx)
+            return
+        self._announce(ctx)
+        if how == "stuck":
+            while True:
+                pass
+        if how == "exit":
+            sys.exit(0)
+        if how == "raise":
+            raise RuntimeError(f"asked to raise at t={ctx.time:g}")
+
+    def _announce(self, ctx: StepContext) -> None:
+        print(
+            f"{self.fault.how} at t={ctx.time:g} (pid {os.getpid()}) "
+            f"[monotonic {time.monotonic():.6f}]",
+            flush=True,
+        )
+
+    def _hog(self, ctx: StepContext) -> None:
+        if not self._hoard:
+            self._announce(ctx)
+        try:
+            self._hoard.append(b"\x01" * HOG_CHUNK)  # filled: every page is touched
+        except MemoryError:
+            print(f"MemoryError [monotonic {time.monotonic():.6f}]", flush=True)
+            raise
+        size = len(self._hoard) * HOG_CHUNK >> 20
+        print(f"holding {size} MiB [monotonic {time.monotonic():.6f}]", flush=True)
+
+
+class Stuck(Faulty):
     """A participant that steps normally until ``at`` s, then computes forever inside its step.
 
     It prints ``stuck at t=... (pid N)`` when it starts the endless step (a busy Python
@@ -87,18 +170,7 @@ class Stuck:
     """
 
     def __init__(self, at: float = 0.05, period: float = 0.01) -> None:
-        self.at = at
-        self.period = period
-
-    def setup(self, ctx: StepContext) -> None:
-        """Nothing to subscribe to."""
-
-    def step(self, ctx: StepContext) -> None:
-        """Return at once before ``at``; never return from then on."""
-        if ctx.time >= self.at:
-            print(f"stuck at t={ctx.time:g} (pid {os.getpid()})", flush=True)
-            while True:
-                pass
+        super().__init__(Fault("stuck", at, period))
 
 
 class Drive(Message):

@@ -19,6 +19,7 @@ from typing import Any
 import pytest
 
 from multicosim.core.errors import MulticosimError
+from multicosim.core.files import replacing
 
 from .fidelity import fidelity_of
 from .options import Settings, settings_key
@@ -105,9 +106,13 @@ def save_trace(
     return saved, None
 
 
-def save_logs(view: Simulations, dest: Path) -> dict[str, tuple[Path, str]]:
-    """Copy the output of ``view``'s simulations to ``dest``: name -> (copy, what to show)."""
-    saved: dict[str, tuple[Path, str]] = {}
+def save_logs(view: Simulations, dest: Path) -> dict[str, tuple[Path | None, str]]:
+    """Copy the output of ``view``'s simulations to ``dest``: name -> (copy, what to show).
+
+    A copy that cannot be written (a full disk) leaves no partial file: its entry has no
+    path, and what to show says why, after the output's tail.
+    """
+    saved: dict[str, tuple[Path | None, str]] = {}
     for sim in view.simulations:
         logs = getattr(sim, "logs", None)
         if logs is None:
@@ -118,13 +123,10 @@ def save_logs(view: Simulations, dest: Path) -> dict[str, tuple[Path, str]]:
             continue
         for name, path in files.items():
             try:
-                dest.mkdir(parents=True, exist_ok=True)
-                target = dest / path.name
-                shutil.copyfile(path, target)
                 tail = "\n".join(path.read_text(errors="replace").splitlines()[-20:])
             except OSError:
                 continue
-            saved[name] = (target, tail)
+            saved[name] = _copy(path, dest, tail)
         # Real firmware's flight logs (binary: copied, not shown): PX4's ULog files, for its
         # Flight Review; ArduPilot's DataFlash logs, for MAVExplorer or UAV Log Viewer.
         flight_logs = getattr(sim, "flight_logs", None)
@@ -133,10 +135,16 @@ def save_logs(view: Simulations, dest: Path) -> dict[str, tuple[Path, str]]:
         except (OSError, MulticosimError):
             ulogs = []
         for path in ulogs:
-            with contextlib.suppress(OSError):
-                dest.mkdir(parents=True, exist_ok=True)
-                target = dest / path.name
-                shutil.copyfile(path, target)
-                viewer = _FLIGHT_LOG_VIEWERS.get(path.suffix, "(a flight log)")
-                saved[f"flight log {path.name}"] = (target, viewer)
+            viewer = _FLIGHT_LOG_VIEWERS.get(path.suffix, "(a flight log)")
+            saved[f"flight log {path.name}"] = _copy(path, dest, viewer)
     return saved
+
+
+def _copy(path: Path, dest: Path, text: str) -> tuple[Path | None, str]:
+    target = dest / path.name
+    try:
+        with replacing(target) as temporary:
+            shutil.copyfile(path, temporary)
+    except OSError as exc:
+        return None, f"{text}\n(not saved: {exc})"
+    return target, text

@@ -104,6 +104,7 @@ def annotate(item: pytest.Item, call: pytest.CallInfo[None], report: pytest.Test
     view = item.stash.get(view_key, None)
     if view is not None and keep:
         for name, (path, tail) in save_logs(view, dest).items():
-            lines.append(f"--- {name}: last output (full log: {path}) ---")
+            where = f"full log: {path}" if path is not None else "full log not saved"
+            lines.append(f"--- {name}: last output ({where}) ---")
             lines.append(tail)
     report.sections.append(("multicosim", "\n".join(lines)))

@@ -2,10 +2,15 @@
 
 from __future__ import annotations
 
+import functools
 import importlib
 import os
+import shutil
 import signal
-from collections.abc import Iterator
+import sys
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -31,6 +36,70 @@ def no_leaks() -> Iterator[None]:
     for pid in left:
         os.kill(pid, signal.SIGKILL)
     assert not left, f"processes left running: {sorted(left)}"
+
+
+def _own_runs() -> set[Path]:
+    """The run directories this process owns (by the owner record a run starts with)."""
+    from multicosim.local import runs_directory
+
+    me = str(os.getpid())
+    found = set()
+    for run_dir in runs_directory().glob("mcs-*"):
+        try:
+            owner = (run_dir / "owner").read_text().split()
+        except OSError:
+            continue
+        if owner and owner[0] == me:
+            found.add(run_dir)
+    return found
+
+
+def _ours(engine: Any, **label: str) -> tuple[list[str], list[str]]:
+    filters = {"label": [f"multicosim.{k}={v}" for k, v in label.items()]}
+    containers = [c["Names"][0] for c in engine.api.containers(all=True, filters=filters)]
+    networks = [n["Name"] for n in engine.api.networks(filters=filters)]
+    return containers, networks
+
+
+Ours = Callable[..., tuple[list[str], list[str]]]
+
+
+@pytest.fixture
+def ours() -> Ours:
+    """``ours(run=ID)``: names of containers and networks with those multicosim labels."""
+    from multicosim.docker.engine import client
+
+    return functools.partial(_ours, client())
+
+
+@pytest.fixture
+def no_docker_leak_check() -> Callable[[], None]:
+    """A check that nothing this process created in Docker remains (swept, then failed)."""
+
+    def check() -> None:
+        from multicosim.docker import sweep
+        from multicosim.docker.engine import client, session_id
+
+        left = _ours(client(), session=session_id())
+        if left != ([], []):
+            sweep(only_current_process=True)
+            pytest.fail(f"left behind: containers {left[0]}, networks {left[1]}")
+
+    return check
+
+
+@pytest.fixture
+def nothing_left(no_leaks: None, no_docker_leak_check: Callable[[], None]) -> Iterator[None]:
+    """Fail if the test leaves a process, a run directory or (where it used Docker) a
+    container or network running or present."""
+    runs = _own_runs()
+    yield
+    left = _own_runs() - runs
+    for run_dir in left:
+        shutil.rmtree(run_dir, ignore_errors=True)
+    assert not left, f"run directories left: {sorted(map(str, left))}"
+    if "multicosim.docker.engine" in sys.modules:
+        no_docker_leak_check()
 
 
 def _children() -> set[int]:

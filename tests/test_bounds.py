@@ -86,6 +86,9 @@ def test_rover_mission_bounds(field: str, value: float, allowed: str) -> None:
         (lambda: mcs.ProcessSimulator(realtime=math.inf), "realtime"),
         (lambda: mcs.ProcessFirmwareComponent("x", timeout=math.inf), "timeout"),
         (lambda: mcs.ProcessComponent("x", start_timeout=math.nan), "start_timeout"),
+        (lambda: mcs.ProcessComponent("x", memory="lots"), "memory"),
+        (lambda: mcs.ProcessComponent("x", memory=1 << 20), "memory"),  # no interpreter fits
+        (lambda: mcs.ProcessFirmwareComponent("x", memory=True), "memory"),
         (lambda: mcs.InProcessFirmwareComponent(testing.echo, timeout=-1.0), "timeout"),
     ],
 )

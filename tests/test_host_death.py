@@ -10,6 +10,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -147,3 +148,85 @@ def test_per_call_timeout_and_its_validation() -> None:
             node.send(testing.Misbehave(how="fine"), timeout=float("inf"))
     with pytest.raises(mcs.ConfigurationError, match="timeout=0"):
         mcs.InProcessFirmwareComponent(testing.misbehave, timeout=0)
+
+
+# -- in-process participants: every step bounded by the step timeout ----------------------
+
+
+class Spin:
+    """A participant whose step never returns from t=0.5 s on (a busy loop, no clock)."""
+
+    period = 0.01
+
+    def setup(self, ctx: mcs.StepContext) -> None:
+        pass
+
+    def step(self, ctx: mcs.StepContext) -> None:
+        while ctx.time >= 0.5:
+            pass
+
+
+DRIVE = "python -m multicosim serve multicosim.testing:drive --port {port}"
+
+
+@pytest.mark.parametrize("driver", ["process", "in-process"])
+def test_spinning_in_process_participant_times_out_like_a_process(driver: str) -> None:
+    simulator = mcs.ProcessSimulator(step_timeout=1.0)
+    simulator.add(mcs.InProcessComponent(Spin, name="cart"))
+    node_id: mcs.NodeId[Any]
+    if driver == "process":
+        node_id = simulator.add(
+            mcs.ProcessFirmwareComponent(
+                DRIVE, msgtype=testing.Drive, replytype=testing.DriveReport
+            )
+        )
+    else:  # the step is nested in the firmware's call, which has its own (longer) timeout
+        node_id = simulator.add(mcs.InProcessFirmwareComponent(testing.drive))
+    with simulator.start() as simulation:
+        start = time.monotonic()
+        with pytest.raises(mcs.NodeTimeoutError) as info:
+            simulation.get(node_id).send(testing.Drive(speed=1.0, steps=40))
+        waited = time.monotonic() - start
+    assert info.value.name == "cart"
+    # The same words as for a process participant, and the line it was stuck on.
+    assert "did not finish its step at t=0.5 s within 1 s" in str(info.value)
+    assert "interrupted in step at test_host_death.py" in str(info.value)
+    assert "while ctx.time >= 0.5:" in str(info.value)
+    assert waited < 1.0 + 10.0  # its timeout, and a margin for a loaded machine
+
+
+def test_in_process_setup_that_never_ends_times_out() -> None:
+    class Endless:
+        period = 0.01
+
+        def setup(self, ctx: mcs.StepContext) -> None:
+            while True:
+                time.sleep(0.01)
+
+        def step(self, ctx: mcs.StepContext) -> None:
+            pass
+
+    simulator = mcs.ProcessSimulator()
+    simulator.add(mcs.InProcessComponent(Endless, name="endless", start_timeout=0.3))
+    with pytest.raises(mcs.NodeStartError, match=r"'endless' did not become ready within 0\.3 s"):
+        simulator.start()
+
+
+def test_in_process_step_error_names_the_component() -> None:
+    class Broken:
+        period = 0.01
+
+        def setup(self, ctx: mcs.StepContext) -> None:
+            pass
+
+        def step(self, ctx: mcs.StepContext) -> None:
+            if ctx.time >= 0.1:
+                raise ValueError("bad state")
+
+    simulator = mcs.ProcessSimulator()
+    simulator.add(mcs.InProcessComponent(Broken, name="broken"))
+    with simulator.start() as simulation, pytest.raises(ValueError, match="bad state") as info:
+        simulation.advance(1.0)
+    assert info.value.__notes__ == ["in the step of component 'broken' at t=0.1 s"]
+    with pytest.raises(mcs.ConfigurationError, match="start_timeout"):
+        mcs.InProcessComponent(Broken, name="x", start_timeout=0)

@@ -40,7 +40,7 @@ from typing import TYPE_CHECKING, Any, Literal
 from ..core.errors import ConfigurationError, NodeStartError
 from ..core.geo import Home
 from ..core.interfaces import Node
-from ..local import mark_reported
+from ..local import ending, mark_reported
 from ..mavlink.sitl import (
     SitlNodes,
     check_first_instance,
@@ -350,7 +350,9 @@ def wait_started(bridge: JsonBridge, process: Any, name: str, timeout: float) ->
     while not bridge.poll_started():
         code = process.poll()
         if code is not None:
-            raise start_error(name, "exited before it sent a servo packet", process, code)
+            raise start_error(
+                name, f"{ending(process)} before it sent a servo packet", process, code
+            )
         if time.monotonic() > deadline:
             raise start_error(
                 name,

@@ -16,7 +16,7 @@ from typing import Literal
 from ..core import wire
 from ..core.errors import ConfigurationError, NodeStartError, translate
 from ..local.processes import split_command
-from ..local.waits import DEFAULT_START_TIMEOUT, check_timeout
+from ..local.waits import DEFAULT_START_TIMEOUT, check_timeout, ending
 from ._limits import ContainerLimits, _check_limits
 from .engine import LABEL_COMPONENT, APIError, require_image
 from .environment import ContainerEnvironment
@@ -104,6 +104,7 @@ def _launch(
         environment=environment,
         log_dir=environment.run_dir if environment.keep_logs else None,
     )
+    node.memory = limits.memory_bytes
     environment.coordinator.expect(name, order, node)
     try:
         try:
@@ -119,7 +120,10 @@ def _launch(
                 code = node.poll()
                 if code is not None:
                     raise NodeStartError(
-                        name, "exited before it was ready", exit_code=code, log_tail=node.log_tail()
+                        name,
+                        f"{ending(node)} before it was ready",
+                        exit_code=code,
+                        log_tail=node.log_tail(),
                     )
                 raise NodeStartError(name, f"port {key} was not published")
             node.ports[key] = int(bound[key][0]["HostPort"])

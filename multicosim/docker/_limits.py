@@ -7,10 +7,10 @@ privileges, an init process); the limits add its user, memory and process caps.
 from __future__ import annotations
 
 import dataclasses
-import re
 from typing import Any
 
 from ..core.errors import ConfigurationError
+from ..local.waits import memory_bytes
 
 __all__ = ["NONROOT_USER", "ContainerLimits"]
 
@@ -18,8 +18,6 @@ NONROOT_USER = "10001:10001"
 """The user (uid:gid) component containers run as unless told otherwise: not root, and not
 a user of the host (the runtime image names it ``multicosim``)."""
 
-_MEMORY = re.compile(r"(\d+)([bkmg]?)", re.IGNORECASE)
-_UNITS = {"": 1, "b": 1, "k": 1 << 10, "m": 1 << 20, "g": 1 << 30}
 _MIN_MEMORY = 6 << 20  # the engine refuses less
 
 
@@ -51,9 +49,16 @@ class ContainerLimits:
         if isinstance(self.pids, bool) or not isinstance(self.pids, int) or self.pids < 16:
             raise ConfigurationError("pids", self.pids, "an integer >= 16")
 
+    @property
+    def memory_bytes(self) -> int:
+        """``memory`` in bytes."""
+        size = _memory_bytes(self.memory)
+        assert size is not None  # checked on construction
+        return size
+
     def host_config(self) -> dict[str, Any]:
         """The engine's HostConfig settings these limits (and the fixed hardening) make."""
-        memory = _memory_bytes(self.memory)
+        memory = self.memory_bytes
         return {
             "init": True,
             "cap_drop": ["ALL"],
@@ -65,15 +70,7 @@ class ContainerLimits:
 
 
 def _memory_bytes(value: object) -> int | None:
-    if isinstance(value, bool):
-        return None
-    if isinstance(value, int):
-        size = value
-    elif isinstance(value, str) and (found := _MEMORY.fullmatch(value.strip())):
-        size = int(found.group(1)) * _UNITS[found.group(2).lower()]
-    else:
-        return None
-    return size if size >= _MIN_MEMORY else None
+    return memory_bytes(value, _MIN_MEMORY)
 
 
 def _check_limits(limits: object) -> None:

@@ -18,6 +18,7 @@ from typing import Any
 from ..core.errors import ConfigurationError, NodeCrashedError
 from ..local.environment import LocalEnvironment
 from ..local.rundirs import start_time
+from ..local.waits import Problem, ending, memory_text, reported
 from .engine import APIError, NotFound
 
 __all__ = ["DEFAULT_STOP_TIMEOUT", "ContainerNode"]
@@ -56,6 +57,8 @@ class ContainerNode:
         self._signalled = False
         self._pid_stat: tuple[int, str] | None = None
         self._checked = 0.0
+        self.memory: int | None = None
+        """Its memory limit in bytes, where known (for the error when it runs out)."""
 
     def _watch_pid(self, pid: int) -> None:
         # Waits check liveness every 100 ms; an engine API call for each would cost more than
@@ -89,6 +92,26 @@ class ContainerNode:
             self._exit_code = int(state["ExitCode"])
         return self._exit_code
 
+    def diagnose(self) -> Problem | None:
+        """What the engine knows is wrong: killed at its memory limit, paused, or no longer
+        on its simulation's network (see ``multicosim.local.waits``)."""
+        try:
+            info = self._api.inspect_container(self.id)
+        except NotFound:
+            return None
+        state = info["State"]
+        if state.get("OOMKilled"):
+            limit = f" of {memory_text(self.memory)}" if self.memory else ""
+            return Problem("out of memory", f"killed at its container's memory limit{limit}")
+        if state.get("Paused"):
+            return Problem("frozen", "its container is paused")
+        network = getattr(self._environment, "network", None)
+        mode = info["HostConfig"].get("NetworkMode", "")
+        attached = info["NetworkSettings"].get("Networks") or {}
+        if network is not None and mode == network and network not in attached:
+            return Problem("unreachable", f"disconnected from its simulation's network {network!r}")
+        return None
+
     def logs(self, tail: int | None = None) -> str:
         """The container's output (stdout and stderr), or its last ``tail`` lines."""
         try:
@@ -110,13 +133,15 @@ class ContainerNode:
         return self.ports[key]
 
     def stop(self) -> None:
-        """Stop and remove the container; raise NodeCrashedError if it had failed before."""
+        """Stop and remove the container; raise NodeCrashedError if it had failed before
+        (unless that failure was raised already, by the wait that saw it)."""
         if self._stopped:
             return
         self._stopped = True
         if not self._signalled:
             self._signal_stop()
         early = self._early
+        failure = None
         try:
             if early is None:
                 # docker counts whole seconds; with an init process it exits within ~0.2 s.
@@ -126,15 +151,13 @@ class ContainerNode:
                 self._last_logs = self.logs()
             if self._log_dir is not None:
                 (self._log_dir / f"{self.name}.log").write_text(self._last_logs)
+            if early is not None and early != 0 and self not in reported:
+                # Described while the engine still has the container (an OOM kill, say).
+                failure = f"{ending(self)} before it was stopped"
         finally:
             _remove_container(self._api, self.id)
-        if early is not None and early != 0:
-            raise NodeCrashedError(
-                self.name,
-                "had exited before it was stopped",
-                exit_code=early,
-                log_tail=self.log_tail(),
-            )
+        if failure is not None:
+            raise NodeCrashedError(self.name, failure, exit_code=early, log_tail=self.log_tail())
 
     def _signal_stop(self) -> None:
         # First half of stop: note whether it had already failed, then ask it to exit.

@@ -57,7 +57,9 @@ from .waits import (
     Watch,
     check_timeout,
     crashed,
+    ending,
     mark_reported,
+    stalled,
 )
 
 __all__ = [
@@ -86,10 +88,12 @@ __all__ = [
     "config_json",
     "crashed",
     "default_name",
+    "ending",
     "mark_reported",
     "participant_command",
     "required_images",
     "runs_directory",
+    "stalled",
     "sweep_stale_runs",
 ]
 

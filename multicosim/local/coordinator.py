@@ -14,7 +14,7 @@ import zmq
 from ..core import wire
 from ..core.clock import Delivery, Member, Scheduler, StepResult
 from ..core.errors import NodeStartError, NodeTimeoutError, TransportError
-from .waits import DEFAULT_STEP_TIMEOUT, SLICE_MS, Watch, crashed
+from .waits import DEFAULT_STEP_TIMEOUT, SLICE_MS, Watch, crashed, ending, stalled
 
 __all__ = ["Coordinator"]
 
@@ -82,7 +82,10 @@ class Coordinator:
                 break
             if watch is not None and (code := watch.poll()) is not None:
                 raise NodeStartError(
-                    name, "exited before it was ready", exit_code=code, log_tail=watch.log_tail()
+                    name,
+                    f"{ending(watch)} before it was ready",
+                    exit_code=code,
+                    log_tail=watch.log_tail(),
                 )
             if time.monotonic() > deadline:
                 raise NodeStartError(
@@ -180,10 +183,12 @@ class Coordinator:
         try:
             self.socket.send_multipart([identity, wire.encoder.encode(step)])
         except zmq.ZMQError as exc:
+            # No connection for its identity any more: it has gone, or lost the connection.
             watch = self._watches.get(name)
             if watch is None:
                 raise TransportError(f"component {name!r} is unreachable") from exc
-            raise crashed(watch, f"is unreachable at t={time_ns / 1e9:g} s") from exc
+            gone = "" if watch.poll() is not None else "its connection is gone"
+            raise crashed(watch, f"before its step at t={time_ns / 1e9:g} s", gone) from exc
         deadline = time.monotonic() + self.step_timeout
         watch = self._watches.get(name)
         while True:
@@ -197,12 +202,12 @@ class Coordinator:
                     return StepResult(frame.next_ns, outbox, frame.subscribe)
                 continue
             if watch is not None and watch.poll() is not None:
-                raise crashed(watch, f"exited during its step at t={time_ns / 1e9:g} s")
+                raise crashed(watch, f"during its step at t={time_ns / 1e9:g} s")
             if time.monotonic() > deadline:
                 raise NodeTimeoutError(
                     name,
                     f"did not finish its step at t={time_ns / 1e9:g} s within "
-                    f"{self.step_timeout:g} s",
+                    f"{self.step_timeout:g} s{stalled(watch)}",
                     log_tail=watch.log_tail() if watch else "",
                 )
 
@@ -210,7 +215,7 @@ class Coordinator:
         """Raise NodeCrashedError if any watched participant has exited."""
         for name, watch in self._watches.items():
             if name in self._hellos and watch.poll() is not None:
-                raise crashed(watch, "exited while the simulation ran")
+                raise crashed(watch, "while the simulation ran")
 
     def forget(self, name: str) -> None:
         """Stop watching ``name`` (it is being stopped on purpose)."""

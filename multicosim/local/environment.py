@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import zmq
 
@@ -13,7 +13,22 @@ from .coordinator import Coordinator
 from .rundirs import record_process
 from .waits import DEFAULT_STEP_TIMEOUT, SLICE_MS
 
-__all__ = ["LocalEnvironment"]
+__all__ = ["LocalEnvironment", "StartedProcess"]
+
+
+class StartedProcess(Protocol):
+    """A component process as its environment lists it (a ``ProcessHandle``)."""
+
+    name: str
+    pid: int
+
+    def read_log(self, last: int | None = None) -> bytes:
+        """Its output so far (the ``last`` bytes of it)."""
+        ...
+
+    def restore_log(self) -> None:
+        """Write its log file again if it was removed while the process ran."""
+        ...
 
 
 class LocalEnvironment:
@@ -38,6 +53,8 @@ class LocalEnvironment:
         self.step_timeout = step_timeout
         self._coordinator: Coordinator | None = None
         self._order = 0
+        self.processes: dict[str, StartedProcess] = {}
+        """The component processes started, by name (their logs, for reports)."""
 
     @property
     def coordinator(self) -> Coordinator:

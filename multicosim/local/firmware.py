@@ -28,7 +28,7 @@ from ..core.errors import (
 from ..core.messages import MsgT, ReplyT, decode, encode, type_name
 from ..runtime.serve import Firmware
 from .environment import LocalEnvironment
-from .processes import check_port, default_name, split_command, start_process
+from .processes import check_memory, check_port, default_name, split_command, start_process
 from .waits import (
     DEFAULT_SEND_TIMEOUT,
     DEFAULT_START_TIMEOUT,
@@ -36,6 +36,7 @@ from .waits import (
     Watch,
     check_timeout,
     crashed,
+    stalled,
 )
 
 __all__ = [
@@ -167,11 +168,11 @@ class ProcessFirmwareNode(Generic[MsgT, ReplyT]):
     def _check(self, deadline: float, timeout: float) -> None:
         watch = self._watch
         if watch is not None and watch.poll() is not None:
-            raise crashed(watch, "exited while handling a message")
+            raise crashed(watch, "while handling a message")
         if time.monotonic() > deadline:
             raise NodeTimeoutError(
                 self.name,
-                f"did not answer within {timeout:g} s",
+                f"did not answer within {timeout:g} s{stalled(watch)}",
                 log_tail=watch.log_tail() if watch else "",
             )
 
@@ -197,7 +198,8 @@ class ProcessFirmwareComponent(Generic[MsgT, ReplyT]):
     """A firmware run as a local process, reached as a CommunicationNode over ZeroMQ.
 
     ``command`` may contain ``{port}``; with ``port=None`` the program binds any free port
-    (no collisions between parallel runs) and reports it in its handshake.
+    (no collisions between parallel runs) and reports it in its handshake. ``memory`` caps
+    its address space, as ``ProcessComponent``'s does.
     """
 
     command: str | Sequence[str]
@@ -210,10 +212,12 @@ class ProcessFirmwareComponent(Generic[MsgT, ReplyT]):
     timeout: float = DEFAULT_SEND_TIMEOUT
     start_timeout: float = DEFAULT_START_TIMEOUT
     stop_timeout: float = 5.0
+    memory: int | str | None = None
 
     def __post_init__(self) -> None:
         args = split_command(self.command)
         check_port(self.port)
+        check_memory(self.memory)
         check_types(self.msgtype, self.replytype)
         for field in ("timeout", "start_timeout", "stop_timeout"):
             check_timeout(field, getattr(self, field))
@@ -234,6 +238,7 @@ class ProcessFirmwareComponent(Generic[MsgT, ReplyT]):
             handshake=True,
             start_timeout=self.start_timeout,
             stop_timeout=self.stop_timeout,
+            memory=self.memory,
         )
         assert hello is not None
         if not hello.port:

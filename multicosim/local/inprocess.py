@@ -1,21 +1,26 @@
-"""Components run in the simulation's own process: no sockets, no threads."""
+"""Components run in the simulation's own process: no sockets, no threads.
+
+Each call into them is bounded as a call to a process is: a firmware call by its ``timeout``,
+a participant's step by the simulation's step timeout, its construction and setup by its
+``start_timeout``; code that overruns is interrupted (:mod:`multicosim.local.deadlines`) and
+the run fails with NodeTimeoutError (or NodeStartError) naming the component, the simulated
+time and the line it was running.
+"""
 
 from __future__ import annotations
 
-import ctypes
 import dataclasses
-import itertools
-import threading
 import time
 from collections.abc import Callable
 from typing import Generic, TypeVar
 
-from ..core.clock import Member
+from ..core.clock import Delivery, Member, StepResult
 from ..core.errors import (
     ConfigurationError,
     MessageTypeError,
     MulticosimError,
     NodeError,
+    NodeStartError,
     NodeTimeoutError,
     RemoteError,
     SimulationStopped,
@@ -25,8 +30,9 @@ from ..core.messages import MsgT, ReplyT, decode, encode, type_name
 from ..runtime.context import FirmwareContext, Participant, StepContext, derive_seed
 from ..runtime.serve import Firmware
 from ..runtime.transport import LocalDriver, LocalParticipantLink
+from .deadlines import Expired, run_within
 from .environment import LocalEnvironment
-from .waits import DEFAULT_SEND_TIMEOUT, check_timeout
+from .waits import DEFAULT_SEND_TIMEOUT, DEFAULT_START_TIMEOUT, check_timeout
 
 __all__ = [
     "InProcessComponent",
@@ -35,82 +41,23 @@ __all__ = [
     "InProcessNode",
 ]
 
-
-class _Expired(BaseException):
-    """Raised asynchronously in a thread whose in-process firmware call ran out of time.
-
-    A BaseException, so that a handler's ``except Exception`` does not swallow it.
-    """
+# A handler that keeps stepping is stopped by its driver at the deadline, with the clock in
+# a clean state; the watch interrupts it only if it has not stepped for this long after it.
+_FIRMWARE_GRACE = 0.5
 
 
-def _interrupt(thread_id: int, exc: type[BaseException] | None) -> None:
-    # Raise ``exc`` in that thread at its next Python instruction (None: cancel a pending one).
-    ctypes.pythonapi.PyThreadState_SetAsyncExc(
-        ctypes.c_ulong(thread_id), None if exc is None else ctypes.py_object(exc)
-    )
+def _call(
+    handler: Callable[[MsgT, FirmwareContext], ReplyT], msg: MsgT, ctx: FirmwareContext
+) -> ReplyT:
+    try:
+        return handler(msg, ctx)
+    finally:
+        ctx._finish()
 
 
-class _Deadlines:
-    """Interrupts in-process firmware calls that outlive their timeout.
-
-    A handler that keeps stepping the clock is stopped cleanly by its driver (each
-    ``ctx.step()`` checks the deadline); one that loops without stepping can only be
-    interrupted from outside: one daemon thread per process checks the armed calls every
-    ``POLL`` seconds and raises :class:`_Expired` in the thread of a call ``GRACE`` seconds
-    past its deadline. Arming and disarming cost two dictionary updates. A handler blocked
-    inside a C call (``time.sleep``) is interrupted when it returns to Python.
-    """
-
-    POLL = 0.1
-    GRACE = 0.5
-
-    def __init__(self) -> None:
-        self._lock = threading.Lock()
-        self._armed: dict[int, tuple[int, float]] = {}  # call -> (thread, deadline)
-        self._fired: dict[int, int] = {}  # call -> thread
-        self._count = itertools.count()
-        self._thread: threading.Thread | None = None
-
-    def arm(self, deadline: float) -> int:
-        """Watch a call made now by this thread; return its key for :meth:`disarm`."""
-        key = next(self._count)
-        # A plain dict update (atomic under the GIL): arming costs no lock.
-        self._armed[key] = (threading.get_ident(), deadline)
-        if self._thread is None:
-            with self._lock:
-                if self._thread is None:
-                    self._thread = threading.Thread(
-                        target=self._watch, name="multicosim-deadlines", daemon=True
-                    )
-                    self._thread.start()
-        return key
-
-    def disarm(self, key: int) -> bool:
-        """Stop watching call ``key``; True if it was interrupted (or is about to be)."""
-        if self._armed.pop(key, None) is not None:
-            return False  # the usual case: the watch had not fired, and now it cannot
-        me = threading.get_ident()
-        with self._lock:  # the watch fired: it has raised, under this lock, in our thread
-            if self._fired.pop(key, None) is None:
-                return True  # disarmed before: this is the second call for the same key
-            if me not in self._fired.values():
-                # Not raised yet (the call returned just in time): it must not be raised
-                # later, in whatever this thread runs next.
-                _interrupt(me, None)
-            return True
-
-    def _watch(self) -> None:
-        while True:
-            time.sleep(self.POLL)
-            now = time.monotonic()
-            with self._lock:
-                for key, (thread, deadline) in list(self._armed.items()):
-                    if now > deadline + self.GRACE and self._armed.pop(key, None) is not None:
-                        self._fired[key] = thread
-                        _interrupt(thread, _Expired)
-
-
-_deadlines = _Deadlines()
+def _interrupted(expired: Expired, what: str = "interrupted") -> str:
+    # " (interrupted in step at world.py:12: ...)": the line it was running, where known.
+    return f" ({what} in {expired.where})" if expired.where else ""
 
 
 class InProcessFirmwareNode(Generic[MsgT, ReplyT]):
@@ -158,19 +105,12 @@ class InProcessFirmwareNode(Generic[MsgT, ReplyT]):
         ctx = FirmwareContext(self.name, self._seed, fw.period_ns, driver)
         ctx.time_ns = scheduler.now_ns
         with scheduler.lock():
-            key = _deadlines.arm(driver.limit(limit))
             try:
-                try:
-                    try:
-                        reply = fw.handler(checked, ctx)
-                    finally:
-                        ctx._finish()
-                finally:
-                    expired = _deadlines.disarm(key)
-            except _Expired:
-                if not _deadlines.disarm(key):
-                    raise  # an enclosing call's deadline (a handler calling another node)
-                expired = True
+                # The driver stops a handler that keeps stepping at the deadline itself (each
+                # ctx.step() checks it); the watch interrupts one that stopped stepping.
+                reply = run_within(
+                    driver.limit(limit) + _FIRMWARE_GRACE, _call, fw.handler, checked, ctx
+                )
             except (NodeError, SimulationStopped):
                 # The harness's own failures (a participant crashed or timed out while this
                 # firmware waited on the clock, or this call ran out of time while stepping)
@@ -182,11 +122,12 @@ class InProcessFirmwareNode(Generic[MsgT, ReplyT]):
                 raise RemoteError(
                     self.name, type(exc).__name__, str(exc), traceback.format_exc()
                 ) from exc
-        if expired:
+        if isinstance(reply, Expired):
             raise NodeTimeoutError(
                 self.name,
                 f"did not answer within {limit:g} s (its handler was interrupted at "
-                f"t={scheduler.now_ns / 1e9:g} s of simulated time)",
+                f"t={scheduler.now_ns / 1e9:g} s of simulated time)"
+                f"{_interrupted(reply, 'it was')}",
             )
         return reply
 
@@ -242,19 +183,66 @@ class InProcessNode(Generic[ParticipantT]):
             close()
 
 
+_monotonic = time.monotonic
+_unbounded_step = LocalParticipantLink.step
+
+
+class _BoundedLink(LocalParticipantLink):
+    """Steps an in-process participant within the simulation's step timeout.
+
+    A step that overruns it is interrupted and fails the run with the same NodeTimeoutError
+    as a process participant's (name, simulated time, and here the line it was running); an
+    exception from a step is annotated with the component and the time.
+    """
+
+    def __init__(self, participant: Participant, ctx: StepContext, timeout: float) -> None:
+        super().__init__(participant, ctx)
+        self.timeout = timeout
+
+    def step(self, member: Member, time_ns: int, inbox: list[Delivery]) -> StepResult:
+        try:
+            # Every in-process step passes here: the plain function, no bound method.
+            result = run_within(
+                _monotonic() + self.timeout, _unbounded_step, self, member, time_ns, inbox
+            )
+        except Exception as exc:
+            exc.add_note(f"in the step of component {self.ctx.name!r} at t={time_ns / 1e9:g} s")
+            raise
+        if isinstance(result, Expired):
+            raise NodeTimeoutError(
+                self.ctx.name,
+                f"did not finish its step at t={time_ns / 1e9:g} s within {self.timeout:g} s"
+                f"{_interrupted(result)}",
+            )
+        return result
+
+
 @dataclasses.dataclass(frozen=True)
 class InProcessComponent(Generic[ParticipantT]):
-    """A participant (world, injector) stepped in the simulation's own process."""
+    """A participant (world, injector) stepped in the simulation's own process.
+
+    Each step is bounded by the simulation's ``step_timeout``, as a process participant's
+    is; building and setting it up by ``start_timeout`` (wall-clock seconds).
+    """
 
     factory: Callable[[], ParticipantT]
     name: str
+    start_timeout: float = DEFAULT_START_TIMEOUT
+
+    def __post_init__(self) -> None:
+        check_timeout("start_timeout", self.start_timeout)
 
     def start(self, environment: LocalEnvironment) -> InProcessNode[ParticipantT]:
         """Build the participant, set it up, and schedule it from the current instant."""
-        participant = self.factory()
         ctx = StepContext(self.name, derive_seed(environment.seed, self.name))
-        participant.setup(ctx)
-        link = LocalParticipantLink(participant, ctx)
+        participant = run_within(time.monotonic() + self.start_timeout, self._build, ctx)
+        if isinstance(participant, Expired):
+            raise NodeStartError(
+                self.name,
+                f"did not become ready within {self.start_timeout:g} s (it was still being "
+                f"built or set up){_interrupted(participant)}",
+            )
+        link = _BoundedLink(participant, ctx, environment.step_timeout)
         member = Member(
             self.name,
             environment.next_order(),
@@ -265,3 +253,8 @@ class InProcessComponent(Generic[ParticipantT]):
         environment.scheduler.add(member)
         environment.scheduler.subscribe(member, ctx._take_topics())
         return InProcessNode(participant, self.name)
+
+    def _build(self, ctx: StepContext) -> ParticipantT:
+        participant = self.factory()
+        participant.setup(ctx)
+        return participant

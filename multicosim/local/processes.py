@@ -8,6 +8,7 @@ import dataclasses
 import functools
 import logging
 import os
+import resource
 import shlex
 import signal
 import subprocess
@@ -19,12 +20,22 @@ from typing import Literal
 from ..core import wire
 from ..core.errors import ConfigurationError, NodeCrashedError, NodeStartError
 from .environment import LocalEnvironment
-from .waits import DEFAULT_START_TIMEOUT, check_timeout, reported
+from .rundirs import process_state
+from .waits import (
+    DEFAULT_START_TIMEOUT,
+    Problem,
+    check_timeout,
+    ending,
+    memory_bytes,
+    memory_text,
+    reported,
+)
 
 __all__ = [
     "ProcessComponent",
     "ProcessHandle",
     "ProcessNode",
+    "check_memory",
     "check_port",
     "default_name",
     "split_command",
@@ -75,6 +86,9 @@ def _resolve_python(args: list[str]) -> list[str]:
 
 _PR_SET_PDEATHSIG = 1  # from <linux/prctl.h>
 
+MIN_MEMORY = 16 << 20
+"""The smallest memory cap a process component takes (a Python interpreter needs more)."""
+
 
 @functools.cache
 def _prctl() -> Callable[..., int] | None:
@@ -87,24 +101,29 @@ def _prctl() -> Callable[..., int] | None:
     return prctl
 
 
-def _die_with_host() -> Callable[[], None] | None:
-    """What a child runs before its program: SIGKILL for it once its host has died (Linux).
+def _before_exec(memory: int | None) -> Callable[[], None] | None:
+    """What a child runs before its program: die with its host; cap its memory.
 
     Even a component busy inside a step then ends with its host (SIGKILL to pytest, a crash,
-    an out-of-memory kill), instead of waiting for the next session's sweep. Linux delivers
-    the signal when the *thread* that started the child ends, so simulations must run in a
-    thread that outlives them (pytest's, a script's main thread). Elsewhere components only
-    notice a lost host while they wait (``multicosim.runtime.HostWatch``).
+    an out-of-memory kill), instead of waiting for the next session's sweep: on Linux it
+    gets SIGKILL once its host has died. Linux delivers the signal when the *thread* that
+    started the child ends, so simulations must run in a thread that outlives them
+    (pytest's, a script's main thread). Elsewhere components only notice a lost host while
+    they wait (``multicosim.runtime.HostWatch``). ``memory`` caps its address space
+    (``RLIMIT_AS``): an allocation past it fails (Python raises MemoryError).
     """
     prctl = _prctl()
-    if prctl is None:
+    if prctl is None and memory is None:
         return None
     host = os.getpid()
 
     def arm() -> None:  # runs in the child between fork and exec: no imports, no locks
-        prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
-        if os.getppid() != host:
-            os._exit(1)  # the host died before the signal was armed
+        if prctl is not None:
+            prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+            if os.getppid() != host:
+                os._exit(1)  # the host died before the signal was armed
+        if memory is not None:
+            resource.setrlimit(resource.RLIMIT_AS, (memory, memory))
 
     return arm
 
@@ -113,6 +132,8 @@ class ProcessHandle:
     """A started local process in its own process group, with its output in a log file.
 
     It is killed (SIGKILL) if its host process dies, even in the middle of a step (Linux).
+    ``memory`` (bytes) caps its address space. Its output stays readable while it runs even
+    if its log file is removed (read through the handle's own descriptor).
     """
 
     def __init__(
@@ -123,11 +144,15 @@ class ProcessHandle:
         env: Mapping[str, str],
         cwd: str | None,
         log_path: Path,
+        memory: int | None = None,
     ) -> None:
         self.name = name
         self.args = args
         self.log_path = log_path
-        self._log = open(log_path, "ab")  # noqa: SIM115 - closed in terminate()
+        self.memory = memory
+        # Read and append: the tail is read through this descriptor, which outlives the
+        # file's name (a run directory removed under a running simulation).
+        self._log = open(log_path, "a+b")  # noqa: SIM115 - closed in terminate()
         try:
             self.popen = subprocess.Popen(
                 args,
@@ -137,7 +162,7 @@ class ProcessHandle:
                 env={**os.environ, **env},
                 cwd=cwd,
                 start_new_session=True,
-                preexec_fn=_die_with_host(),
+                preexec_fn=_before_exec(memory),
             )
         except OSError as exc:
             self._log.close()
@@ -151,14 +176,38 @@ class ProcessHandle:
 
     def log_tail(self, lines: int = 40) -> str:
         """The last ``lines`` lines of its output."""
+        return "\n".join(self.read_log(16384).decode(errors="replace").splitlines()[-lines:])
+
+    def read_log(self, last: int | None = None) -> bytes:
+        """Its output so far (the ``last`` bytes of it); empty if it cannot be read."""
         try:
+            if not self._log.closed:
+                fd = self._log.fileno()
+                size = os.fstat(fd).st_size
+                start = 0 if last is None else max(0, size - last)
+                return os.pread(fd, size - start, start)
             with open(self.log_path, "rb") as f:
-                f.seek(0, os.SEEK_END)
-                f.seek(max(0, f.tell() - 16384))
-                text = f.read().decode(errors="replace")
+                if last is not None:
+                    f.seek(0, os.SEEK_END)
+                    f.seek(max(0, f.tell() - last))
+                return f.read()
         except OSError:
-            return ""
-        return "\n".join(text.splitlines()[-lines:])
+            return b""
+
+    def restore_log(self) -> None:
+        """Write its log file again if it was removed while the process ran (from the open
+        file: what was written before, and since, is all there)."""
+        if self._log.closed or self.log_path.exists():
+            return
+        output = self.read_log()
+        self.log_path.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
+        self.log_path.write_bytes(output)
+
+    def diagnose(self) -> Problem | None:
+        """Frozen if it is stopped (SIGSTOP, a debugger); see ``multicosim.local.waits``."""
+        if self.popen.poll() is None and process_state(self.pid) in ("T", "t"):
+            return Problem("frozen", "its process is stopped, as by SIGSTOP")
+        return None
 
     def terminate(self, timeout: float) -> int:
         """TERM the process group, wait ``timeout``, then KILL; return the exit code."""
@@ -167,6 +216,8 @@ class ProcessHandle:
             if self.popen.poll() is None:
                 with contextlib.suppress(ProcessLookupError, PermissionError):
                     os.killpg(self.pid, signal.SIGTERM)
+                    # A stopped (frozen) process acts on SIGTERM only once it continues.
+                    os.killpg(self.pid, signal.SIGCONT)
                 try:
                     self.popen.wait(timeout)
                 except subprocess.TimeoutExpired:
@@ -209,6 +260,15 @@ class ProcessNode:
         """The last lines of its output."""
         return self.handle.log_tail(lines)
 
+    def diagnose(self) -> Problem | None:
+        """What is known to be wrong with it (see ``ProcessHandle.diagnose``)."""
+        return self.handle.diagnose()
+
+    @property
+    def memory(self) -> int | None:
+        """Its memory cap in bytes, if it has one."""
+        return self.handle.memory
+
     def stop(self) -> None:
         """Terminate it; raise NodeCrashedError if it had failed before it was stopped."""
         if self._stopped:
@@ -221,10 +281,20 @@ class ProcessNode:
         if early is not None and early != 0 and self.handle not in reported:
             raise NodeCrashedError(
                 self.name,
-                "had exited before it was stopped",
+                f"{ending(self.handle)} before it was stopped",
                 exit_code=early,
                 log_tail=self.handle.log_tail(),
             )
+
+
+def check_memory(memory: object) -> None:
+    """Raise ConfigurationError unless ``memory`` is None or a size of at least 16 MiB."""
+    if memory is not None and memory_bytes(memory, MIN_MEMORY) is None:
+        raise ConfigurationError(
+            "memory",
+            memory,
+            f"None, or bytes (an integer >= {memory_text(MIN_MEMORY)}) or a size like '512m', '2g'",
+        )
 
 
 def _log_path(environment: LocalEnvironment, name: str) -> Path:
@@ -241,7 +311,10 @@ def start_process(
     handshake: bool,
     start_timeout: float,
     stop_timeout: float,
+    memory: int | str | None = None,
 ) -> tuple[ProcessNode, wire.Hello | None]:
+    """Start component ``name`` as a process (``memory``: its cap, see ``check_memory``);
+    with ``handshake``, wait until it has joined the simulation."""
     order = environment.next_order()
     handle = ProcessHandle(
         name,
@@ -249,7 +322,9 @@ def start_process(
         env={**environment.component_env(name), **env},
         cwd=cwd,
         log_path=_log_path(environment, name),
+        memory=None if memory is None else memory_bytes(memory),
     )
+    environment.processes[name] = handle
     environment.record_pid(handle.pid)
     node = ProcessNode(handle, stop_timeout, environment)
     environment.coordinator.expect(name, order, handle)
@@ -268,7 +343,9 @@ class ProcessComponent:
     """A component run as a local process (the local counterpart of ContainerComponent).
 
     ``ready="handshake"`` (default) waits for the program to join the simulation (programs
-    built with multicosim do so); ``ready="started"`` is for arbitrary commands.
+    built with multicosim do so); ``ready="started"`` is for arbitrary commands. ``memory``
+    caps its address space (``RLIMIT_AS``; bytes, or ``"512m"``, ``"2g"``; None: no cap):
+    past it an allocation fails, and the error says it ran out of memory.
     """
 
     command: str | Sequence[str]
@@ -278,11 +355,13 @@ class ProcessComponent:
     ready: Literal["handshake", "started"] = "handshake"
     start_timeout: float = DEFAULT_START_TIMEOUT
     stop_timeout: float = 5.0
+    memory: int | str | None = None
 
     def __post_init__(self) -> None:
         args = split_command(self.command)
         if self.ready not in ("handshake", "started"):
             raise ConfigurationError("ready", self.ready, "'handshake' or 'started'")
+        check_memory(self.memory)
         check_timeout("start_timeout", self.start_timeout)
         check_timeout("stop_timeout", self.stop_timeout)
         if self.name is None:
@@ -300,5 +379,6 @@ class ProcessComponent:
             handshake=self.ready == "handshake",
             start_timeout=self.start_timeout,
             stop_timeout=self.stop_timeout,
+            memory=self.memory,
         )
         return node

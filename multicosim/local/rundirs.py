@@ -27,6 +27,7 @@ from ..core.errors import MulticosimError
 __all__ = [
     "boot_id",
     "new_run_dir",
+    "process_state",
     "record_process",
     "remove_tree",
     "runs_directory",
@@ -52,6 +53,12 @@ def _stat(pid: int) -> list[str] | None:
             return f.read().rsplit(")", 1)[1].split()
     except OSError:
         return None
+
+
+def process_state(pid: int) -> str | None:
+    """Process ``pid``'s state letter (``R`` running, ``S`` sleeping, ``T`` stopped, ...)."""
+    fields = _stat(pid)
+    return None if fields is None else fields[0]  # field 3
 
 
 def start_time(pid: int) -> str | None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 import math
 import os
 from pathlib import Path
@@ -27,6 +28,8 @@ __all__ = [
 ]
 
 NodeT = TypeVar("NodeT", bound=Node)
+
+log = logging.getLogger(__name__)
 
 # Slower pacing than a thousandth of real time is a mistake, not a setting: a run would
 # look hung.
@@ -65,7 +68,13 @@ class ProcessSimulation(NodeSet):
             scheduler.advance(to_ns(duration, field="duration"))
 
     def logs(self) -> dict[str, Path]:
-        """Log files of the components that run as processes, by component name."""
+        """Log files of the components that run as processes, by component name.
+
+        If the run directory was removed under the running simulation, the logs of its
+        processes are written again from their open files first.
+        """
+        for handle in self.environment.processes.values():
+            handle.restore_log()
         return {p.stem: p for p in sorted(self.environment.run_dir.glob("*.log"))}
 
     def stop(self) -> None:
@@ -77,8 +86,13 @@ class ProcessSimulation(NodeSet):
 
     def _finish(self) -> None:
         self.environment.close()
-        if not self._keep_run_dir:
-            remove_tree(self.environment.run_dir)
+        run_dir = self.environment.run_dir
+        if not run_dir.exists():
+            # Not an error of the run (its processes kept their files open and ran on), but
+            # its logs are gone, and a sweep could not have found it had this host died.
+            log.warning("the run directory %s was removed while the simulation ran", run_dir)
+        elif not self._keep_run_dir:
+            remove_tree(run_dir)
 
 
 EnvT = TypeVar("EnvT", bound=LocalEnvironment)

@@ -28,7 +28,7 @@ from collections.abc import Callable
 from typing import Any, NamedTuple
 
 from ..core.errors import MulticosimError, NodeCrashedError, NodeTimeoutError
-from ..local import Watch, crashed
+from ..local import Watch, crashed, stalled
 from ..runtime.context import StepContext, Subscription
 from .dialect import CMD_SET_MSG_INTERVAL, MSG_HIL_STATE_QUATERNION, dialect, new_link
 from .hil import (
@@ -158,31 +158,32 @@ class Lockstep:
     def _check_alive(self) -> None:
         watch = self.watch
         if watch is not None and watch.poll() is not None:
-            raise self._lost("exited")
+            raise self._lost()
 
-    def _lost(self, what: str) -> MulticosimError:
-        """The error for a firmware that went away (``what``), with its exit code and output.
+    def _lost(self, what: str = "") -> MulticosimError:
+        """The error for a firmware that went away (``what`` it did: ``"closed the simulator
+        connection"``), with how it ended, its exit code and output.
 
         A firmware that closes its connection is usually exiting: it gets a moment to do
         so, so that the error names its exit code. Marked as reported: stopping its process
         later does not raise the same crash again.
         """
-        reason = f"{what} at {self._where()}"
+        where = f"at {self._where()}"
         watch = self.watch
         if watch is None:
-            return NodeCrashedError(self.name, reason)
+            return NodeCrashedError(self.name, f"{what or 'exited'} {where}")
         if watch.poll() is None:
             for _ in range(20):
                 time.sleep(0.05)
                 if watch.poll() is not None:
                     break
-        return crashed(watch, reason)
+        return crashed(watch, where, f"it {what}" if what else "")
 
     def _silent(self, awaited: str) -> MulticosimError:
         return NodeTimeoutError(
             self.name,
             f"sent no {awaited} within {self.lockstep_timeout:g} s of wall time "
-            f"(lockstep, {self._where()})",
+            f"(lockstep, {self._where()}){stalled(self.watch)}",
             log_tail=self.watch.log_tail() if self.watch is not None else "",
         )
 

@@ -39,7 +39,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 from ..core.errors import ConfigurationError, NodeStartError
-from ..local import mark_reported
+from ..local import ending, mark_reported
 from ..mavlink.hil import Wire
 from ..mavlink.hil_bridge import SIM_PORT, HilTcpBridge
 from ..mavlink.mission import Topics
@@ -365,7 +365,7 @@ def wait_connected(bridge: HilTcpBridge, process: Any, name: str, timeout: float
             mark_reported(process)  # this error says it; stopping the process need not again
             raise NodeStartError(
                 name,
-                "exited before it connected to its simulator",
+                f"{ending(process)} before it connected to its simulator",
                 exit_code=code,
                 log_tail=process.log_tail(),
             )

@@ -14,6 +14,7 @@ import msgspec
 
 from ..core.deps import require
 from ..core.errors import TraceError
+from ..core.files import replacing
 from ._schemas import Schema
 
 __all__ = [
@@ -47,15 +48,17 @@ Row = tuple[int, str, Schema, bytes]
 
 
 def write_mcap(path: Path, rows: Iterable[Row], metadata: Mapping[str, object]) -> dict[str, str]:
-    """Write ``rows`` and the metadata record to ``path``; return topic -> schema name."""
+    """Write ``rows`` and the metadata record to ``path``; return topic -> schema name.
+
+    Written whole or not at all: a failure (a full disk) leaves no partial file behind.
+    """
     mcap_writer = require("mcap.writer", "trace")
     channels: dict[str, int] = {}
     names: dict[str, str] = {}
     schemas: dict[tuple[str, str], int] = {}
     sequence: dict[str, int] = {}
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with open(path, "wb") as stream:
+        with replacing(path) as temporary, open(temporary, "wb") as stream:
             writer = mcap_writer.Writer(stream)
             writer.start(profile="", library=f"multicosim {_version('multicosim')}")
             for time_ns, topic, schema, payload in rows:

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 
 from ..core.deps import require
 from ..core.errors import TraceError
+from ..core.files import replacing
 from ._convert import PATH_CHANNEL, PLAN_CHANNEL, ROBUSTNESS_CHANNEL, TRAJECTORY_CHANNEL
 from ._mcap import METADATA_NAME, TraceData, TraceMessage, read_trace
 
@@ -214,6 +215,6 @@ def plot_trace(trace: str | Path, output: str | Path) -> Path:
         )
     fig = figure(data)
     output = Path(output)
-    output.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(output, dpi=80)
+    with replacing(output) as temporary:
+        fig.savefig(temporary, dpi=80, format="png")
     return output

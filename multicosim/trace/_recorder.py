@@ -14,6 +14,7 @@ import msgspec
 
 from ..core.clock import find_scheduler
 from ..core.errors import ConfigurationError, TraceError
+from ..core.files import replacing
 from ._convert import (
     PLAN_CHANNEL,
     ROBUSTNESS_CHANNEL,
@@ -240,7 +241,8 @@ class Recorder:
         path = Path(path)
         document = layout(self.channels, self.options.plots, self.metadata)
         try:
-            path.write_text(json.dumps(document, indent=2) + "\n")
+            with replacing(path) as temporary:
+                temporary.write_text(json.dumps(document, indent=2) + "\n")
         except OSError as exc:
             raise TraceError(f"could not write the layout {str(path)!r}: {exc}") from exc
         return path

@@ -11,6 +11,7 @@ from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 from ..core.errors import TraceError
+from ..core.files import replacing
 
 __all__ = ["split_frames", "write_tlog"]
 
@@ -37,8 +38,7 @@ def split_frames(data: bytes) -> Iterator[bytes]:
 def write_tlog(path: Path, frames: Iterable[tuple[int, bytes]]) -> Path:
     """Write ``(time_ns, frames)`` pairs, in time order, as a ``.tlog`` at ``path``."""
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with open(path, "wb") as stream:
+        with replacing(path) as temporary, open(temporary, "wb") as stream:
             for time_ns, data in frames:
                 stamp = _STAMP.pack(time_ns // 1000)
                 for frame in split_frames(data):

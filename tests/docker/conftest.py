@@ -6,7 +6,6 @@ Without a reachable engine the tests are skipped with the reason, unless
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Callable, Iterator
 from typing import Any
 
@@ -37,32 +36,11 @@ def image(engine: Any) -> str:
         raise  # unreachable: docker_unavailable skips or fails
 
 
-def _ours(engine: Any, **label: str) -> tuple[list[str], list[str]]:
-    filters = {"label": [f"multicosim.{k}={v}" for k, v in label.items()]}
-    containers = [c["Names"][0] for c in engine.api.containers(all=True, filters=filters)]
-    networks = [n["Name"] for n in engine.api.networks(filters=filters)]
-    return containers, networks
-
-
-Ours = Callable[..., tuple[list[str], list[str]]]
-
-
-@pytest.fixture
-def ours(engine: Any) -> Ours:
-    """``ours(run=ID)``: names of containers and networks with those multicosim labels."""
-    return functools.partial(_ours, engine)
-
-
 @pytest.fixture(autouse=True)
-def no_docker_leaks(request: pytest.FixtureRequest) -> Iterator[None]:
+def no_docker_leaks(
+    request: pytest.FixtureRequest, no_docker_leak_check: Callable[[], None]
+) -> Iterator[None]:
     """After each test that used the engine, nothing created by this process remains."""
     yield
-    if "engine" not in request.fixturenames:
-        return
-    from multicosim.docker import sweep
-    from multicosim.docker.engine import client, session_id
-
-    left = _ours(client(), session=session_id())
-    if left != ([], []):
-        sweep(only_current_process=True)
-        pytest.fail(f"left behind: containers {left[0]}, networks {left[1]}")
+    if "engine" in request.fixturenames:
+        no_docker_leak_check()
