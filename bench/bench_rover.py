@@ -29,7 +29,6 @@ from _common import docker_reason, write_result
 
 import multicosim.rover as rover
 from multicosim.physics import Physics
-from multicosim.rover import RoverVehicle
 
 # About 60 s of simulated time: wait, 50 m, a right-angle turn, 55 m and stop, at 2 m/s.
 MISSION = rover.Mission(

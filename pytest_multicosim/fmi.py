@@ -33,7 +33,8 @@ from typing import TYPE_CHECKING, Any
 
 import pytest
 
-from .plugin import Simulations, require_docker, tracked
+from .docker import require_docker
+from .simulations import Simulations, tracked
 
 if TYPE_CHECKING:
     from multicosim.docker import ContainerSimulator

@@ -15,7 +15,7 @@ from fmu_helpers import FAULT_TIME
 
 import multicosim as mcs
 from multicosim import fmi
-from pytest_multicosim.plugin import require_docker
+from pytest_multicosim.docker import require_docker
 
 STOP = 5.0
 
