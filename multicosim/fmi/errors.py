@@ -16,8 +16,9 @@ class FMUError(NodeError):
     """An FMU answered an FMI call with Discard, Error or Fatal (or its solver failed).
 
     A :class:`multicosim.NodeError`: ``name`` is the component, ``function`` the FMI call
-    (``fmi2DoStep``, ``fmi3DoStep``, ...), ``status`` what it returned and ``time`` the FMU's
-    time (s) at the call. The run stops there and the instance is freed. Run as a process or a
+    (``fmi2DoStep``, ``fmi3DoStep``, ...), ``status`` what it returned, ``time`` the simulated
+    time (s) of the step and ``fmu_time`` the FMU's own (they differ by the FMU's
+    ``start_time``). The run stops there and the instance is freed. Run as a process or a
     container, the same failure ends the component's program, and the host reports a
     NodeCrashedError whose log tail holds this error and the FMU's own log.
     """
@@ -30,14 +31,17 @@ class FMUError(NodeError):
         status: str,
         time: float,
         *,
+        fmu_time: float | None = None,
         log_tail: str = "",
     ) -> None:
         self.function = function
         self.status = status
         self.time = time
+        self.fmu_time = time if fmu_time is None else fmu_time
         self.fmu = model if isinstance(model, str) else model.label
+        when = f"at t={time:.9g} s"
+        if self.fmu_time != time:
+            when += f" (the FMU's time {self.fmu_time:.9g} s)"
         super().__init__(
-            name,
-            f"(FMU {self.fmu}) failed: {function} returned {status} at t={time:.9g} s",
-            log_tail=log_tail,
+            name, f"(FMU {self.fmu}) failed: {function} returned {status} {when}", log_tail=log_tail
         )

@@ -390,9 +390,12 @@ class Instance:
         """A context in which FMPy's failures become FMUError (the instance is then freed)."""
         return _Calls(self, what, self.time if time is None else time)
 
-    def failure(self, exc: Exception, what: str, time: float) -> FMUError:
-        """The FMUError that FMPy's exception ``exc`` (or the solver's) stands for; the
-        instance is freed (after Fatal only abandoned, as FMI requires)."""
+    def failure(
+        self, exc: Exception, what: str, time: float, simulated: float | None = None
+    ) -> FMUError:
+        """The FMUError that FMPy's exception ``exc`` (or the solver's) stands for, at the
+        FMU's ``time`` and the ``simulated`` time (default: the same); the instance is freed
+        (after Fatal only abandoned, as FMI requires)."""
         from fmpy.fmi1 import FMICallException
 
         if isinstance(exc, FMICallException):
@@ -401,7 +404,8 @@ class Instance:
         else:  # the solver (CVode) or FMPy itself
             function, status = what, f"{type(exc).__name__}: {exc}"
         self.abandon(status)
-        return FMUError(self.name, self.model, function, status, time)
+        at = time if simulated is None else simulated
+        return FMUError(self.name, self.model, function, status, at, fmu_time=time)
 
     # -- the end --------------------------------------------------------------------------
 

@@ -155,7 +155,7 @@ class FMUParticipant:
             if not finished:
                 instance.advance(time, until)
         except Exception as exc:  # FMPy's FMICallException, or the solver's
-            error = instance.failure(exc, "step", time)
+            error = instance.failure(exc, "step", time, ctx.time)
             self._failed(ctx, error)
             raise error from exc
         record = self._record_type(time, *values)

@@ -81,6 +81,19 @@ def test_a_failing_step_in_process_is_an_fmu_error(
     assert node.result()["time"][-1] == pytest.approx(0.4)  # its last good instant
 
 
+def test_the_error_names_the_simulated_time_and_the_fmus(
+    faulty_fmu: Callable[[str], Path],
+) -> None:
+    simulator = mcs.ProcessSimulator()
+    simulator.add(fmi.FMU(faulty_fmu("error"), name="dahlquist", period=0.1, start_time=0.3))
+    with simulator.start() as simulation, pytest.raises(fmi.FMUError) as info:
+        simulation.advance(2.0)
+    # The FMU's time starts at 0.3 s: its fault (from its 0.5 s on) comes at 0.2 s.
+    assert info.value.time == pytest.approx(0.2)
+    assert info.value.fmu_time == pytest.approx(0.5)
+    assert "at t=0.2 s (the FMU's time 0.5 s)" in str(info.value)
+
+
 def test_a_failing_step_in_a_process_is_a_crash_with_the_error(
     faulty_fmu: Callable[[str], Path], no_leaks: None
 ) -> None:
