@@ -1,4 +1,4 @@
-"""Run every benchmark, print one table, write bench/results/all.json, update the README.
+"""Run every benchmark, print one table, write bench/results/all.json, update docs/benchmarks.md.
 
     python -m bench                  # the full run (about 6 minutes on 2 cores)
     python -m bench --quick          # a shorter run (about 1 minute)
@@ -6,14 +6,14 @@
     python -m bench --only ardupilot --merge   # re-measure some, keep the others' figures
     python -m bench --smoke          # does every benchmark still run? (CI; writes nothing)
 
-The falsification benchmark takes longer and keeps its own README table:
-``python bench/bench_search.py --readme``.
+The falsification benchmark takes longer and keeps its own table on that page:
+``python bench/bench_search.py --docs``.
 
 Each benchmark runs as its own process (``bench/bench_NAME.py``, which writes
 ``bench/results/NAME.json``), one after the other, so that none inherits another's heap,
-sockets or children. The summary rows are built from those files; the README's Performance
+sockets or children. The summary rows are built from those files; the benchmarks page's
 section (between ``<!-- bench:start -->`` and ``<!-- bench:end -->``) is regenerated from
-``all.json`` and nothing else in the README is touched.
+``all.json`` and nothing else on the page is touched.
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ from typing import Any
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
-from _common import RESULTS, ROOT, machine, replace_readme_section  # noqa: E402
+from _common import BENCHMARKS_PAGE, RESULTS, ROOT, machine, replace_section  # noqa: E402
 
 START, END = "<!-- bench:start -->", "<!-- bench:end -->"
 # Run order: the cheap, noise-sensitive ones first.
@@ -686,7 +686,7 @@ def machine_line(m: dict[str, Any]) -> str:
 
 
 def markdown(summary: dict[str, Any]) -> str:
-    """The README's Performance section body."""
+    """The benchmarks page's generated section."""
     rows: list[Row] = summary["rows"]
     mode = "`python -m bench --quick`" if summary["quick"] else "`python -m bench`"
     lines = [
@@ -745,9 +745,9 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m bench", description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="a shorter run (about 1 min)")
     parser.add_argument(
-        "--only", help="comma list of benchmarks (default: all); writes no all.json or README"
+        "--only", help="comma list of benchmarks (default: all); writes no all.json or page"
     )
-    parser.add_argument("--no-readme", action="store_true", help="leave README.md alone")
+    parser.add_argument("--no-docs", action="store_true", help="leave docs/benchmarks.md alone")
     parser.add_argument(
         "--smoke",
         action="store_true",
@@ -758,7 +758,7 @@ def main(argv: list[str] | None = None) -> int:
         "--merge",
         action="store_true",
         help="with --only: keep all.json's other results (their run's figures stay as they "
-        "were) and regenerate the README from them and these",
+        "were) and regenerate the page from them and these",
     )
     args = parser.parse_args(argv)
     if args.merge and not args.only:
@@ -822,11 +822,12 @@ def main(argv: list[str] | None = None) -> int:
         return 1 if any("error" in r for r in results.values()) else 0
     RESULTS.mkdir(parents=True, exist_ok=True)
     (RESULTS / "all.json").write_text(json.dumps(summary, indent=2) + "\n")
-    if not args.no_readme:
-        if replace_readme_section(START, END, markdown(summary)):
-            print("updated the README's Performance section")
+    if not args.no_docs:
+        if replace_section(BENCHMARKS_PAGE, START, END, markdown(summary)):
+            print(f"updated {BENCHMARKS_PAGE.relative_to(ROOT)}")
         else:
-            print(f"README.md has no {START} ... {END} markers: left alone", file=sys.stderr)
+            page = BENCHMARKS_PAGE.name
+            print(f"{page} has no {START} ... {END} markers: left alone", file=sys.stderr)
     return 1 if any("error" in r for r in results.values()) else 0
 
 

@@ -14,18 +14,19 @@ from typing import Any
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 RESULTS = HERE / "results"
-README = ROOT / "README.md"
+BENCHMARKS_PAGE = ROOT / "docs" / "benchmarks.md"  # the documentation's pages the figures go to
+RELIABILITY_PAGE = ROOT / "docs" / "reliability.md"
 
 
-def replace_readme_section(start: str, end: str, section: str) -> bool:
-    """Put ``section`` (which begins with ``start`` and ends with ``end``) in the README in
+def replace_section(page: Path, start: str, end: str, section: str) -> bool:
+    """Put ``section`` (which begins with ``start`` and ends with ``end``) in ``page`` in
     place of what lies between those markers; False, and nothing written, if one is missing."""
-    text = README.read_text()
+    text = page.read_text()
     head, found_start, rest = text.partition(start)
     _, found_end, tail = rest.partition(end)
     if not found_start or not found_end:
         return False
-    README.write_text(head + section + tail)
+    page.write_text(head + section + tail)
     return True
 
 

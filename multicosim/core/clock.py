@@ -1,6 +1,6 @@
 """The lockstep scheduler: one simulated clock, topics routed in a fixed order.
 
-Design (see docs/architecture.md): a central scheduler steps participants one at a time in
+Design (see docs/concepts/architecture.md): a central scheduler steps participants one at a time in
 order of their next wake-up time, ties broken by the order they were added to the simulator.
 Messages published during a step are routed at once, so a participant added later sees, in the
 same instant, what an earlier one published (an injector placed between a sensor and its reader

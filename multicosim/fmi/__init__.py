@@ -14,7 +14,7 @@ An FMU is a participant: every ``period`` of simulated time it takes the inputs 
 arrived on its topics, publishes its outputs (and its record, on the topic named like it)
 and steps (``doStep``; model exchange: FMPy's CVode or Euler). FMPy loads and runs the
 FMU; its model description is the contract, checked before anything starts
-(:func:`describe`). See docs/fmi.md.
+(:func:`describe`). See docs/guides/fmi.md.
 
 Modules: :mod:`.model` (the model description), :mod:`.config` (the checked configuration),
 :mod:`.instance` (the FMI calls, through FMPy), :mod:`.participant` (the stepped program),

@@ -55,7 +55,7 @@ _PYTHON_TYPES: dict[str, type[Any]] = {
     "Binary": bytes,
     **dict.fromkeys(_INTEGER_RANGES, int),
 }
-# What FMI 3 adds that multicosim does not drive (see docs/fmi.md).
+# What FMI 3 adds that multicosim does not drive (see docs/guides/fmi.md).
 _UNSUPPORTED_TYPES = {"Clock": "FMI 3 clocks are not supported"}
 
 

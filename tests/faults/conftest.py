@@ -3,8 +3,8 @@
 Every test here injects one fault into a running simulation, checks the error that reports
 it, and records how long after the fault the error came (``fault_helpers.Detections``): that figure
 goes to the test's JUnit properties and, with ``MCS_RECORD_FAULTS=1``, to
-``bench/results/faults/FAULT.json`` (``python bench/faults.py --readme`` puts them in the
-README's reliability table). The only timed assertion is
+``bench/results/faults/FAULT.json`` (``python bench/faults.py --docs`` puts them in the
+reliability table, docs/reliability.md). The only timed assertion is
 the one the error owes: within the fault's own timeout plus ``fault_helpers.MARGIN``.
 """
 
