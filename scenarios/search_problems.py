@@ -3,7 +3,7 @@
 Each :class:`Problem` is a simulate function (``simulate(sample, fidelity, seed)``, the one
 callback shape of multicosim), a requirement and a search space; the share of the space that
 violates the requirement is small (measured by ``bench/bench_search.py`` with uniform
-samples, and stated in the README). The problems use the shipped scenarios through their
+samples, and stated in docs/benchmarks.md). The problems use the shipped scenarios through their
 public APIs:
 
 * ``rover-lane``: the rover FSA under a GPS spoof (an offset that appears at its onset,

@@ -60,6 +60,7 @@ LISTINGS = (
     'executor="ray"',
     "real = px4.PX4(",
     "def test_the_mission_stays_below_30_m",
+    "def test_altitude(px4_simulation):",
 )
 
 _FENCE = re.compile(r"^(?P<indent> *)```python\n(?P<code>.*?)^(?P=indent)```", re.M | re.S)
@@ -137,6 +138,14 @@ def test_every_block_is_run_by_a_test() -> None:
         )
 
 
+def test_the_readmes_links_lead_to_files() -> None:
+    # The site's own links are checked by mkdocs build --strict; the README is outside it.
+    targets = re.findall(r"\]\(([^)#]+)(?:#[^)]*)?\)", README.read_text())
+    local = [t for t in targets if not t.startswith(("http://", "https://"))]
+    assert len(local) >= 20
+    assert [t for t in local if not (ROOT / t).is_file()] == []
+
+
 def test_sketches_claim_no_output() -> None:
     for page, code in _blocks(sketches=True):
         assert not _shown(code), f"a sketch in {page.relative_to(ROOT)} claims an output"
@@ -185,6 +194,18 @@ def test_pytest_listing_passes(pytester: pytest.Pytester) -> None:
 def test_px4_pytest_listing_passes(pytester: pytest.Pytester) -> None:
     pytester.makepyfile(_block("def test_the_mission_stays_below_30_m"))
     pytester.runpytest("--mcs-fidelity=low,medium").assert_outcomes(passed=2)
+
+
+def test_failing_listing_reports_as_shown(pytester: pytest.Pytester) -> None:
+    pytester.makepyfile(test_mission=_block("def test_altitude(px4_simulation):"))
+    result = pytester.runpytest("--mcs-fidelity=low", "--mcs-artifacts=artifacts")
+    result.assert_outcomes(failed=1)
+    page = (ROOT / "docs" / "how-to" / "failing-runs.md").read_text()
+    shown = re.findall(r"```\n(verdict: .*?)```", page, flags=re.DOTALL)
+    assert len(shown) == 1
+    # "..." stands for what varies (robustness figures, where the test and artifacts lie).
+    lines = [line.replace("[", "[[]").replace("...", "*") for line in shown[0].splitlines()]
+    result.stdout.fnmatch_lines(lines)
 
 
 def test_fmu_listing_runs(reference_fmus: Path) -> None:

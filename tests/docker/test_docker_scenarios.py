@@ -196,7 +196,7 @@ def test_fixtures_skip_without_an_engine_unless_required(
     args = ("--mcs-backend=docker", "-rs", "-p", "no:cacheprovider")
     result = pytester.runpytest(*args)
     result.assert_outcomes(skipped=2)
-    # One short line: where no engine answers; how to start one is in the README.
+    # One short line: where no engine answers; how to start one is in the docs.
     result.stdout.re_match_lines(
         [rf"SKIPPED \[\d+\] \S+: no Docker engine at unix://{tmp_path}/no-engine.sock$"]
     )

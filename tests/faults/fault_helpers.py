@@ -143,7 +143,7 @@ class Watcher(threading.Thread):
 
 
 class Detections:
-    """Records a fault's detection time for the README (and checks it against its bound)."""
+    """Records a fault's detection time for docs/reliability.md and checks it against its bound."""
 
     def __init__(self, request: pytest.FixtureRequest) -> None:
         self._request = request

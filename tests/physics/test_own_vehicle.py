@@ -1,7 +1,7 @@
 """A vehicle multicosim does not ship, in its world: the cart-pole of ``cartpole.py``.
 
 Nothing of multicosim is changed for it: the module beside this test is all a user writes
-(the README shows it). At medium fidelity its MuJoCo world and its controller run as
+(the documentation shows it). At medium fidelity its MuJoCo world and its controller run as
 separate processes in lockstep; a trace records them; an injector between them corrupts the
 pole's angle sensor.
 """
