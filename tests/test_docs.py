@@ -410,6 +410,20 @@ def test_every_public_name_is_in_the_api_reference(site: Path) -> None:
         assert (ROOT / "docs" / "reference" / "api" / f"{page.split('.')[-1]}.md").exists()
 
 
+def test_every_public_class_and_function_has_a_docstring() -> None:
+    undocumented = []
+    for module in API:
+        for name in importlib.import_module(module).__all__:
+            value = getattr(importlib.import_module(module), name)
+            if not (inspect.isclass(value) or inspect.isfunction(value)):
+                continue
+            # A class's own docstring: not inherited, not the one dataclasses make up.
+            doc = (vars(value).get("__doc__") if inspect.isclass(value) else value.__doc__) or ""
+            if not doc.strip() or doc.startswith(f"{value.__name__}("):
+                undocumented.append(f"{module}.{name}")
+    assert undocumented == []
+
+
 def test_every_public_subpackage_is_documented() -> None:
     public = {
         f"multicosim.{info.name}"
