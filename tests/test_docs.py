@@ -198,8 +198,9 @@ def test_px4_pytest_listing_passes(pytester: pytest.Pytester) -> None:
 
 def test_failing_listing_reports_as_shown(pytester: pytest.Pytester) -> None:
     pytester.makepyfile(test_mission=_block("def test_altitude(px4_simulation):"))
-    # In a process of its own, as a user runs it (an earlier in-process pytest session of
-    # PX4 tests leaves its report without the MAVLink log).
+    # In a process of its own, as a user runs it: pytester's in-process runs restore
+    # sys.modules after each run, and after another in-process run of PX4 tests the report
+    # came without its MAVLink log (two pytest sessions in one process run the same way).
     result = pytester.runpytest_subprocess("--mcs-fidelity=low", "--mcs-artifacts=artifacts")
     result.assert_outcomes(failed=1)
     page = (ROOT / "docs" / "how-to" / "failing-runs.md").read_text()
