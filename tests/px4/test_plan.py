@@ -319,3 +319,34 @@ def test_the_builtin_autopilot_flies_a_do_jump_again(tmp_path: Path) -> None:
     back = [i for i in range(1, len(current)) if current[i] < current[i - 1]]
     assert len(back) == 1
     assert current[back[0]] == 1
+
+
+def _into_exclusion(doc: Any) -> None:
+    doc["mission"]["items"][3]["params"][4:6] = [47.397342, 8.545294]  # 7.5 m from its centre
+
+
+def _out_of_inclusion(doc: Any) -> None:
+    doc["mission"]["items"][3]["params"][4:6] = [47.399742, 8.545994]  # 200 m north
+
+
+@pytest.mark.parametrize("change", [_into_exclusion, _out_of_inclusion])
+def test_the_builtin_autopilot_refuses_a_mission_its_plans_fence_forbids(
+    tmp_path: Path, change: Any
+) -> None:
+    config = px4.Configuration.from_plan(edited(tmp_path, change))
+    with px4.PX4(fidelity="low").start() as sim:
+        result = sim.firmware.send(config)
+    assert not result.completed
+    assert result.reason == "Mission rejected: geofence violation, item 3"
+    assert not result.armed
+
+
+def test_real_px4_refuses_a_mission_its_plans_fence_forbids(
+    px4_sitl: RealPX4, tmp_path: Path
+) -> None:
+    config = px4.Configuration.from_plan(edited(tmp_path, _into_exclusion))
+    with px4.PX4(fidelity="medium", firmware=px4_sitl.sitl()).start() as simulation:
+        result = simulation.firmware.send(config)
+    assert not result.completed
+    assert "Geofence violation for waypoint 4" in result.messages  # PX4 counts from 1
+    assert not result.reached

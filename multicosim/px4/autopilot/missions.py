@@ -4,7 +4,7 @@ Uploads (MISSION_COUNT, then MISSION_REQUEST_INT per item with retransmission, M
 are checked as PX4 checks them: navigation items in a global frame (a return-to-launch
 item also in the mission frame, as MAVSDK sends it), DO_JUMP to an existing item, any
 other command MAVLink defines (the navigator notes those it has nothing to do for),
-coordinates in range and inside the geofence parameters. Geofence
+coordinates in range and inside the geofence parameters and the uploaded geofence. Geofence
 (polygon vertices, circles) and rally point lists are stored; RTL returns to the closest
 rally point. A legacy MISSION_REQUEST is answered with the float MISSION_ITEM, as PX4 does.
 """
@@ -46,6 +46,7 @@ from ...mavlink.dialect import (
     Mode,
 )
 from ...mavlink.plan import command_name
+from .geofence import inside_fence
 from .state import Item, State
 
 __all__ = ["Missions"]
@@ -208,6 +209,9 @@ class Missions(State):
                 rel = it.z - ref[5] if it.frame in (FRAME_GLOBAL, FRAME_GLOBAL_INT) else it.z
                 if fence_h > 0 and rel > fence_h:
                     return MISSION_ERROR, f"item {it.seq} above geofence"
+            positioned = cmd in NAV_COMMANDS and (it.x or it.y)
+            if positioned and not inside_fence(self.fence, it.x * 1e-7, it.y * 1e-7):
+                return MISSION_ERROR, f"geofence violation, item {it.seq}"
         return MISSION_ACCEPTED, ""
 
     def _clear(self, mtype: int) -> None:
