@@ -186,7 +186,7 @@ class Configuration(msgspec.Struct, frozen=True):
             )
         return cls(
             mission,
-            end=plan.end(),  # type: ignore[arg-type]
+            end=plan.end(),
             cruise_speed=plan.hover_speed,
             acceptance_radius=acceptance_radius,
             time_limit=time_limit,

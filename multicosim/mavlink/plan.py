@@ -15,7 +15,7 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import msgspec
 
@@ -43,6 +43,7 @@ from .dialect import (
 __all__ = [
     "FenceCircle",
     "FencePolygon",
+    "Params",
     "Plan",
     "PlanItem",
     "RallyPoint",
@@ -64,7 +65,13 @@ AMSL_FRAMES = (FRAME_GLOBAL, FRAME_GLOBAL_INT)
 WAYPOINT_COMMANDS = (CMD_WAYPOINT, CMD_LOITER_TIME, CMD_LOITER_UNLIM)
 """The items a plan's waypoints are made of (where the vehicle flies to and may stay)."""
 
-_QGC_ALTITUDE_MODE = {FRAME_GLOBAL_REL: 1, FRAME_GLOBAL_REL_INT: 1, FRAME_GLOBAL: 2}
+# QGroundControl's AltitudeMode of an item: 1 relative to home, 2 AMSL.
+_QGC_ALTITUDE_MODE = {
+    FRAME_GLOBAL_REL: 1,
+    FRAME_GLOBAL_REL_INT: 1,
+    FRAME_GLOBAL: 2,
+    FRAME_GLOBAL_INT: 2,
+}
 
 
 def command_name(command: int) -> str:
@@ -72,6 +79,10 @@ def command_name(command: int) -> str:
     entry = dialect("ardupilotmega").enums["MAV_CMD"].get(command)
     name: str = entry.name if entry is not None and not entry.name.endswith("ENUM_END") else ""
     return name
+
+
+Params = tuple[float, float, float, float, float, float, float]
+"""A mission item's seven parameters (5-7: latitude, longitude, altitude)."""
 
 
 class PlanItem(msgspec.Struct, frozen=True):
@@ -83,7 +94,7 @@ class PlanItem(msgspec.Struct, frozen=True):
 
     command: int
     frame: int
-    params: tuple[float, float, float, float, float, float, float]
+    params: Params
     autocontinue: bool = True
 
     @property
@@ -150,7 +161,7 @@ class Plan(msgspec.Struct, frozen=True, kw_only=True):
         """Indices of the items that are waypoints (to fly to, and perhaps to stay at)."""
         return [i for i, it in enumerate(self.items) if it.command in WAYPOINT_COMMANDS]
 
-    def end(self) -> str:
+    def end(self) -> Literal["land", "rtl", "hold"]:
         """How the mission ends: ``"land"``, ``"rtl"`` or ``"hold"`` (at its last item)."""
         for it in reversed(self.items):
             if it.command == CMD_LAND:
@@ -299,18 +310,19 @@ class _Reader:
             raw_params = self.lst(f"{where}.params", obj.get("params"))
             if len(raw_params) != 7:
                 raise self.fail(f"{where}.params", raw_params, "seven parameters")
-            values = [
+            p1, p2, p3, p4, lat, lon, alt = (
                 self.num(f"{where}.params[{k}]", v, null=True) for k, v in enumerate(raw_params)
-            ]
-            params = (*values[:4], *(0.0 if math.isnan(v) else v for v in values[4:]))
+            )
+            # An unset position is none: 0, as MAVLink sends it.
+            lat, lon, alt = (0.0 if math.isnan(v) else v for v in (lat, lon, alt))
+            params = (p1, p2, p3, p4, lat, lon, alt)
             if frame != FRAME_MISSION and not (-90 <= params[4] <= 90 and -180 <= params[5] <= 180):
                 raise self.fail(f"{where}.params", raw_params, "a latitude and longitude in range")
             jump_id = obj.get("doJumpId", i + 1)
             if isinstance(jump_id, int) and not isinstance(jump_id, bool):
                 jump_ids[jump_id] = len(items)
-            items.append(
-                PlanItem(command, int(frame), params, bool(obj.get("autoContinue", True)))  # type: ignore[arg-type]
-            )
+            autocontinue = bool(obj.get("autoContinue", True))
+            items.append(PlanItem(command, int(frame), params, autocontinue))
         for i, it in enumerate(items):
             if it.command == CMD_DO_JUMP:
                 target = jump_ids.get(int(it.params[0]) if math.isfinite(it.params[0]) else -1)

@@ -56,7 +56,8 @@ def plan_items(
     for i, it in enumerate(items):
         p = it.params
         if not math.isnan(unset):
-            p = tuple(unset if math.isnan(v) else v for v in p)  # type: ignore[assignment]
+            p1, p2, p3, p4, lat, lon, alt = (unset if math.isnan(v) else v for v in p)
+            p = (p1, p2, p3, p4, lat, lon, alt)
         if it.command == CMD_DO_JUMP:
             p = (p[0] + first, *p[1:])
         # Items without a position carry params 5 and 6 as integers, unscaled.

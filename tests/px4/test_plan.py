@@ -4,16 +4,27 @@ from __future__ import annotations
 
 import json
 import math
+import tempfile
 from pathlib import Path
 from typing import Any
 
 import msgspec
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import multicosim as mcs
 import multicosim.px4 as px4
 from multicosim.core.geo import LocalProjection
-from multicosim.mavlink.plan import Plan, read_plan
+from multicosim.mavlink.plan import (
+    FenceCircle,
+    FencePolygon,
+    Plan,
+    PlanItem,
+    RallyPoint,
+    read_plan,
+    write_plan,
+)
 from pytest_multicosim.px4 import RealPX4
 
 DATA = Path(__file__).parent.parent / "data"
@@ -350,3 +361,45 @@ def test_real_px4_refuses_a_mission_its_plans_fence_forbids(
     assert not result.completed
     assert "Geofence violation for waypoint 4" in result.messages  # PX4 counts from 1
     assert not result.reached
+
+
+@st.composite
+def plans(draw: st.DrawFn) -> Plan:
+    """Plans of any simple items, fences and rally points QGroundControl could save."""
+    lat = st.floats(-89.0, 89.0)
+    lon = st.floats(-179.0, 179.0)
+    param = st.floats(-1e6, 1e6) | st.just(math.nan)
+    n = draw(st.integers(1, 8))
+    items = []
+    for _ in range(n):
+        command = draw(st.sampled_from([16, 17, 19, 20, 21, 22, 178, 177, 2000, 203, 201]))
+        if command == 177:
+            target = draw(st.integers(0, n - 1))
+            params = (float(target), draw(st.floats(-1, 10)), 0.0, 0.0, 0.0, 0.0, 0.0)
+            items.append(PlanItem(command, 2, params))
+            continue
+        frame = draw(st.sampled_from([0, 3, 5, 6])) if command < 100 else 2
+        position = (draw(lat), draw(lon), draw(st.floats(0, 500))) if frame != 2 else (0.0,) * 3
+        p1, p2, p3, p4 = (draw(param) for _ in range(4))
+        params = (p1, p2, p3, p4, *position)
+        items.append(PlanItem(command, frame, params, draw(st.booleans())))
+    vertices = st.lists(st.tuples(lat, lon), min_size=3, max_size=6)
+    radius = st.floats(0.5, 1e4)
+    return Plan(
+        items=items,
+        home=(draw(lat), draw(lon), draw(st.floats(-100, 4000))),
+        cruise_speed=draw(st.floats(0.1, 50)),
+        hover_speed=draw(st.floats(0.1, 20)),
+        polygons=draw(st.lists(st.builds(FencePolygon, vertices, st.booleans()), max_size=2)),
+        circles=draw(st.lists(st.builds(FenceCircle, lat, lon, radius, st.booleans()), max_size=2)),
+        rally=draw(st.lists(st.builds(RallyPoint, lat, lon, st.floats(0, 500)), max_size=3)),
+    )
+
+
+@given(plan=plans())
+@settings(max_examples=60, deadline=None)
+def test_any_plan_round_trips_unchanged_in_meaning(plan: Plan) -> None:
+    with tempfile.TemporaryDirectory() as directory:
+        path = Path(directory) / "any.plan"
+        write_plan(plan, path)
+        assert meaning(read_plan(path)) == meaning(plan)
