@@ -403,3 +403,33 @@ def test_any_plan_round_trips_unchanged_in_meaning(plan: Plan) -> None:
         path = Path(directory) / "any.plan"
         write_plan(plan, path)
         assert meaning(read_plan(path)) == meaning(plan)
+
+
+def _return_instead_of_landing(doc: Any) -> None:
+    doc["mission"]["items"][6] = {
+        "autoContinue": True,
+        "command": 20,
+        "doJumpId": 7,
+        "frame": 2,
+        "params": [0, 0, 0, 0, 0, 0, 0],
+        "type": "SimpleItem",
+    }
+
+
+RALLY_2 = PROJ.project(47.397542, 8.546194)  # 26.6 m from the loiter point, home 30 m
+
+
+@pytest.mark.parametrize("real", [False, True], ids=["builtin", "real"])
+def test_a_plans_return_lands_at_its_closest_rally_point(
+    tmp_path: Path, real: bool, request: pytest.FixtureRequest
+) -> None:
+    firmware = request.getfixturevalue("px4_sitl").sitl() if real else None
+    config = px4.Configuration.from_plan(edited(tmp_path, _return_instead_of_landing))
+    assert config.end == "rtl"
+    simulator = px4.PX4(fidelity="medium" if real else "low", firmware=firmware)
+    with simulator.start() as simulation:
+        result = simulation.firmware.send(config)
+    assert result.completed, result.reason
+    last = result.trajectory[-1]
+    n, e = PROJ.project(last.true_lat, last.true_lon)
+    assert math.hypot(n - RALLY_2[0], e - RALLY_2[1]) < 3.0
