@@ -49,6 +49,26 @@ def meaning(plan: Plan) -> Any:
     return clean(msgspec.to_builtins(plan))
 
 
+def unplaced(command: int, *params: float) -> dict[str, Any]:
+    """A simple item without a position (frame 2), as QGroundControl saves it."""
+    return {
+        "autoContinue": True,
+        "command": command,
+        "doJumpId": 0,  # numbered by insert_item or the caller
+        "frame": 2,
+        "params": [*params, *[0] * (7 - len(params))],
+        "type": "SimpleItem",
+    }
+
+
+def insert_item(doc: Any, index: int, item: dict[str, Any]) -> None:
+    """Insert ``item`` into the mission at ``index``, renumbering doJumpIds as QGC does."""
+    items = doc["mission"]["items"]
+    items.insert(index, item)
+    for i, it in enumerate(items):
+        it["doJumpId"] = i + 1
+
+
 def edited(tmp_path: Path, change: Any) -> Path:
     """The test plan with ``change(doc)`` applied, written to a new file."""
     doc = json.loads(PLAN.read_text())
@@ -104,18 +124,8 @@ def test_a_plan_round_trips_through_to_plan(tmp_path: Path) -> None:
 
 def test_do_jump_targets_survive_the_round_trip(tmp_path: Path) -> None:
     def add_jump(doc: Any) -> None:
-        items = doc["mission"]["items"]
-        jump = {
-            "autoContinue": True,
-            "command": 177,
-            "doJumpId": 8,
-            "frame": 2,
-            "params": [2, 1, 0, 0, 0, 0, 0],  # to the first waypoint (doJumpId 2), once
-            "type": "SimpleItem",
-        }
-        items.insert(5, jump)  # after the camera item
-        for i, item in enumerate(items):
-            item["doJumpId"] = i + 1
+        # After the camera item: to the first waypoint (doJumpId 2), once.
+        insert_item(doc, 5, unplaced(177, 2, 1))
 
     config = px4.Configuration.from_plan(edited(tmp_path, add_jump))
     assert config.plan is not None
@@ -154,14 +164,7 @@ def _terrain_frame(doc: Any) -> None:
 
 
 def _jump_nowhere(doc: Any) -> None:
-    doc["mission"]["items"][2] = {
-        "autoContinue": True,
-        "command": 177,
-        "doJumpId": 3,
-        "frame": 2,
-        "params": [42, 1, 0, 0, 0, 0, 0],
-        "type": "SimpleItem",
-    }
+    doc["mission"]["items"][2] = {**unplaced(177, 42, 1), "doJumpId": 3}
 
 
 def _not_a_plan(doc: Any) -> None:
@@ -306,20 +309,7 @@ def test_real_px4_flies_a_qgc_plan_with_its_fence_and_rally_points(px4_sitl: Rea
 
 def test_the_builtin_autopilot_flies_a_do_jump_again(tmp_path: Path) -> None:
     def add_jump(doc: Any) -> None:
-        items = doc["mission"]["items"]
-        items.insert(
-            4,
-            {
-                "autoContinue": True,
-                "command": 177,
-                "doJumpId": 0,
-                "frame": 2,
-                "params": [2, 1, 0, 0, 0, 0, 0],
-                "type": "SimpleItem",
-            },
-        )
-        for i, item in enumerate(items):
-            item["doJumpId"] = i + 1
+        insert_item(doc, 4, unplaced(177, 2, 1))  # after item 3, back to item 1, once
 
     config = px4.Configuration.from_plan(edited(tmp_path, add_jump))
     with px4.PX4(fidelity="low").start() as sim:
@@ -406,14 +396,7 @@ def test_any_plan_round_trips_unchanged_in_meaning(plan: Plan) -> None:
 
 
 def _return_instead_of_landing(doc: Any) -> None:
-    doc["mission"]["items"][6] = {
-        "autoContinue": True,
-        "command": 20,
-        "doJumpId": 7,
-        "frame": 2,
-        "params": [0, 0, 0, 0, 0, 0, 0],
-        "type": "SimpleItem",
-    }
+    doc["mission"]["items"][6] = {**unplaced(20), "doJumpId": 7}
 
 
 RALLY_2 = PROJ.project(47.397542, 8.546194)  # 26.6 m from the loiter point, home 30 m
