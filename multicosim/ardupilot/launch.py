@@ -28,7 +28,6 @@ import json
 import logging
 import math
 import os
-import re
 import socket
 import sys
 import threading
@@ -41,6 +40,7 @@ from ..core.errors import ConfigurationError, NodeStartError
 from ..core.geo import Home
 from ..core.interfaces import Node
 from ..local import ending, mark_reported
+from ..mavlink.params import PARAM_NAME
 from ..mavlink.sitl import (
     SitlNodes,
     check_first_instance,
@@ -86,8 +86,6 @@ OVERLAY = "multicosim.parm"
 GUARD = Path(__file__).with_name("_guard.py")
 CONTAINER_DIR = "/opt/ardupilot"
 CONTAINER_WORKDIR = "/ardupilot"
-
-_PARAM_NAME = re.compile(r"^[A-Z][A-Z0-9_]{0,15}$")
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
@@ -189,7 +187,7 @@ class SITL:
 def check_params(params: Mapping[str, object], field: str = "params") -> None:
     """Raise ConfigurationError for a parameter name or value ArduPilot cannot take."""
     for name, value in params.items():
-        if not isinstance(name, str) or not _PARAM_NAME.match(name):
+        if not isinstance(name, str) or not PARAM_NAME.match(name):
             raise ConfigurationError(
                 field, name, "ArduPilot parameter names (upper case, at most 16 characters)"
             )

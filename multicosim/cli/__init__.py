@@ -7,6 +7,8 @@
                                                  (``--fmu PATH``: an FMU's image too)
 ``multicosim plot TRACE.mcap``                   plot a trace to a PNG
 ``multicosim px4 sitl``                          PX4-compatible SITL on PX4's UDP ports
+                                                 (``--plan FILE``: fly a QGroundControl plan)
+``multicosim ardupilot sitl --plan FILE``        fly a QGroundControl plan on ArduPilot
 ``multicosim ardupilot launch``                  (in the ArduPilot image) start ArduPilot
 """
 
@@ -140,7 +142,10 @@ def main(argv: list[str] | None = None) -> int:
     p.set_defaults(run=_sweep)
 
     sub.add_parser("px4", help="PX4 tools: 'multicosim px4 sitl' runs a standalone SITL")
-    sub.add_parser("ardupilot", help="ArduPilot tools: 'multicosim ardupilot launch' (its image)")
+    sub.add_parser(
+        "ardupilot",
+        help="ArduPilot tools: 'multicosim ardupilot sitl --plan FILE' flies a plan; 'launch'",
+    )
 
     p = sub.add_parser("plot", help="plot a trace: planned vs flown path, altitude, robustness")
     p.add_argument("trace", help="an MCAP trace written by multicosim")

@@ -1,4 +1,10 @@
-"""``multicosim ardupilot launch``: the ArduPilot image's entry point.
+"""``multicosim ardupilot``: fly a QGroundControl plan, and the ArduPilot image's entry point.
+
+    multicosim ardupilot sitl --plan mission.plan --params copter.csv \
+        --firmware-dir ../shared/ardupilot-sitl --speed 20
+
+flies the plan (its mission, geofence and rally points) on ArduCopter (or ArduRover) over our
+MuJoCo world with multicosim's ground station and prints how it went.
 
     multicosim ardupilot launch --vehicle copter --sim-host 172.18.0.1 --mavlink-port 40001 \
         --home 47.397742,8.545594,488 --params '{"FRAME_TYPE": 1}'
@@ -10,7 +16,9 @@ link go to ``--sim-host`` (the simulation network's gateway, where the bridge li
 
 from __future__ import annotations
 
+import argparse
 import json
+import os
 import sys
 
 __all__ = ["main"]
@@ -18,14 +26,36 @@ __all__ = ["main"]
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point (``multicosim ardupilot`` delegates here)."""
-    from .common import command_parser, subcommands
+    from .common import add_plan_options, command_parser, run_command, subcommands
 
     parser = command_parser(
         "multicosim ardupilot",
-        "ArduPilot tools: 'launch' is the ArduPilot image's entry point, which starts "
-        "ArduPilot on the simulation's physics bridge.",
+        "ArduPilot tools: 'sitl' flies a QGroundControl plan on ArduPilot SITL over our world; "
+        "'launch' is the ArduPilot image's entry point, which starts ArduPilot on the "
+        "simulation's physics bridge.",
     )
     sub = subcommands(parser, "command")
+    sitl = sub.add_parser(
+        "sitl",
+        help="fly a QGroundControl plan on ArduPilot SITL over the MuJoCo world",
+        description="Fly a QGroundControl plan on ArduPilot SITL (real ArduCopter or "
+        "ArduRover) over multicosim's MuJoCo world, paced at --speed; print the result.",
+    )
+    add_plan_options(sitl, required=True)
+    sitl.add_argument(
+        "--vehicle", choices=("copter", "rover"), default="copter", help="which ArduPilot flies"
+    )
+    sitl.add_argument(
+        "--firmware-dir",
+        default=os.environ.get("MCS_ARDUPILOT_DIR"),
+        help="ArduPilot SITL's directory (bin/arducopter, params/); default: MCS_ARDUPILOT_DIR",
+    )
+    sitl.add_argument("--speed", type=float, default=1.0, help="simulated seconds per wall second")
+    sitl.add_argument("--seed", type=int, default=0, help="fixes every random source")
+    sitl.add_argument(
+        "--duration", type=float, default=None, help="the mission's time limit (simulated s)"
+    )
+    sitl.add_argument("-v", "--verbose", action="store_true", help="show tracebacks")
     launch = sub.add_parser(
         "launch", help="(in the ArduPilot image) write ArduPilot's parameters and start it"
     )
@@ -37,6 +67,10 @@ def main(argv: list[str] | None = None) -> int:
     launch.add_argument("--home", required=True, help="LAT,LON,ALT (degrees, m AMSL)")
     launch.add_argument("--params", default="{}", help="ArduPilot parameters, a JSON object")
     args = parser.parse_args(argv)
+    if args.command == "sitl":
+        if not args.speed > 0:
+            parser.error("--speed must be positive")
+        return run_command("multicosim ardupilot sitl", lambda: _sitl(args), verbose=args.verbose)
     from ..ardupilot.launch import exec_in_container
     from ..core.geo import Home
 
@@ -53,6 +87,28 @@ def main(argv: list[str] | None = None) -> int:
         params=params,
     )
     return 0  # not reached: the process became ArduPilot
+
+
+def _sitl(args: argparse.Namespace) -> int:
+    """Fly ``--plan`` on ArduPilot with multicosim's ground station."""
+    import msgspec
+
+    from .. import ardupilot
+    from .common import fly_plan
+
+    config = ardupilot.Configuration.from_plan(args.plan)
+    if args.duration is not None:
+        config = msgspec.structs.replace(config, time_limit=args.duration)
+    params = ardupilot.read_params(args.params) if args.params else {}
+    vehicle = ardupilot.Copter if args.vehicle == "copter" else ardupilot.Rover
+    simulator = vehicle(
+        fidelity="medium",
+        firmware_dir=args.firmware_dir,
+        seed=args.seed,
+        realtime=args.speed,
+        params=params,
+    )
+    return fly_plan(simulator, config)
 
 
 if __name__ == "__main__":

@@ -8,7 +8,14 @@ import sys
 from collections.abc import Callable
 from typing import Any
 
-__all__ = ["HelpFormatter", "command_parser", "run_command", "subcommands"]
+__all__ = [
+    "HelpFormatter",
+    "add_plan_options",
+    "command_parser",
+    "fly_plan",
+    "run_command",
+    "subcommands",
+]
 
 
 class HelpFormatter(argparse.HelpFormatter):
@@ -51,3 +58,35 @@ def run_command(prog: str, run: Callable[[], int], *, verbose: bool = False) -> 
             raise
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return 1
+
+
+def add_plan_options(parser: argparse.ArgumentParser, *, required: bool = False) -> None:
+    """``--plan`` (a QGroundControl .plan to fly) and ``--params`` (a parameter file)."""
+    parser.add_argument(
+        "--plan",
+        required=required,
+        default=None,
+        help="fly this QGroundControl .plan (its mission, geofence and rally points) with "
+        "multicosim's ground station, print the result and exit (status 0 if it completed)",
+    )
+    parser.add_argument(
+        "--params",
+        default=None,
+        help="a parameter file set at boot, before arming: 'param set NAME VALUE' lines, "
+        "QGroundControl's .params or a name,value CSV",
+    )
+
+
+def fly_plan(simulator: Any, config: Any) -> int:
+    """Fly ``config`` on ``simulator``, print how it went; 0 if the mission completed."""
+    with simulator.start() as simulation:
+        result = simulation.firmware.send(config)
+    reached = ", ".join(f"{r.index} at {r.time:.1f} s" for r in result.reached) or "none"
+    print(f"waypoints reached: {reached}")
+    for text in result.messages:
+        print(f"autopilot: {text}")
+    if result.completed:
+        print(f"mission completed in {result.duration:.1f} simulated seconds")
+        return 0
+    print(f"mission not completed: {result.reason}")
+    return 1

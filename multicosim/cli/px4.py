@@ -3,9 +3,12 @@
     multicosim px4 sitl                                  # built-in autopilot, real time
     multicosim px4 sitl --speed 5 --fidelity medium
     multicosim px4 sitl --px4-binary ../shared/px4-sitl/bin/px4 --speed 10   # real PX4
+    multicosim px4 sitl --plan mission.plan --params vehicle.params --speed 20
 
 QGroundControl (UDP 14550), MAVProxy (``--master udpin:127.0.0.1:14550``) or MAVSDK
-(``udpin://0.0.0.0:14540``) connect and fly it as they would PX4 SITL with Gazebo.
+(``udpin://0.0.0.0:14540``) connect and fly it as they would PX4 SITL with Gazebo. With
+``--plan``, multicosim's own ground station flies a QGroundControl plan instead, and the
+command ends with the flight.
 Ctrl-C or SIGTERM stops it and everything it started.
 """
 
@@ -19,12 +22,14 @@ import sys
 import threading
 from pathlib import Path
 
+import msgspec
+
 __all__ = ["main"]
 
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point (``multicosim px4 sitl`` delegates here)."""
-    from .common import command_parser, run_command, subcommands
+    from .common import add_plan_options, command_parser, run_command, subcommands
 
     parser = command_parser(
         "multicosim px4",
@@ -78,6 +83,7 @@ def main(argv: list[str] | None = None) -> int:
         default=None,
         help="fly real PX4 in a container of this image (multicosim images build --px4-dir)",
     )
+    add_plan_options(p)
     p.add_argument("-v", "--verbose", action="store_true", help="log debug messages")
     launch = sub.add_parser(
         "launch", help="(in the PX4 image) prepare PX4's working directory and start PX4"
@@ -102,6 +108,8 @@ def main(argv: list[str] | None = None) -> int:
     )
     if not args.speed > 0:
         parser.error("--speed must be positive")
+    if args.plan:
+        return run_command("multicosim px4 sitl", lambda: _plan(args), verbose=args.verbose)
     stop = threading.Event()
     # SIGTERM ends the run as cleanly as Ctrl-C does.
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
@@ -131,6 +139,7 @@ def main(argv: list[str] | None = None) -> int:
         with contextlib.suppress(KeyboardInterrupt):
             run_sitl(
                 fidelity=args.fidelity,
+                params=_params(args),
                 speed=args.speed,
                 links=links,
                 seed=args.seed,
@@ -164,6 +173,7 @@ def _real(parser: argparse.ArgumentParser, args: argparse.Namespace, stop: threa
     with contextlib.suppress(KeyboardInterrupt):
         run_real_sitl(
             sitl,
+            params=_params(args),
             speed=args.speed,
             seed=args.seed,
             duration=args.duration,
@@ -171,6 +181,36 @@ def _real(parser: argparse.ArgumentParser, args: argparse.Namespace, stop: threa
             on_ready=ready,
         )
     return 0
+
+
+def _params(args: argparse.Namespace) -> dict[str, float]:
+    from ..mavlink.params import read_params
+
+    return read_params(args.params) if args.params else {}
+
+
+def _plan(args: argparse.Namespace) -> int:
+    """Fly ``--plan`` with multicosim's ground station, paced at ``--speed``."""
+    from .. import px4
+    from .common import fly_plan
+
+    config = px4.Configuration.from_plan(args.plan)
+    if args.duration is not None:
+        config = msgspec.structs.replace(config, time_limit=args.duration)
+    firmware = None
+    if args.px4_binary or args.px4_image:
+        firmware = px4.SITL(
+            binary=args.px4_binary, image=None if args.px4_binary else args.px4_image
+        )
+    simulator = px4.PX4(
+        fidelity=args.fidelity,
+        backend="docker" if firmware is not None and firmware.binary is None else "process",
+        seed=args.seed,
+        realtime=args.speed,
+        params=_params(args),
+        firmware=firmware,
+    )
+    return fly_plan(simulator, config)
 
 
 def _launch(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:

@@ -8,6 +8,8 @@
   fly in the MuJoCo world, with its HIL sensor suite;
 * :mod:`.mission`, :mod:`.gcs`, :mod:`.node`, :mod:`.trace`: missions, the ground station that
   flies them over MAVLink, the firmware node it drives, and their traces;
+* :mod:`.plan`, :mod:`.plan_link`, :mod:`.params`: QGroundControl plans (read, written, and
+  flown item for item) and parameter files;
 * :mod:`.sitl`: launching real SITL firmware as a process or a container.
 
 Used by :mod:`multicosim.px4` and :mod:`multicosim.ardupilot`; it knows neither.

@@ -43,6 +43,7 @@ from ..local import ending, mark_reported
 from ..mavlink.hil import Wire
 from ..mavlink.hil_bridge import SIM_PORT, HilTcpBridge
 from ..mavlink.mission import Topics
+from ..mavlink.params import PARAM_NAME
 from ..mavlink.sitl import (
     SitlNodes,
     check_first_instance,
@@ -68,8 +69,6 @@ MAX_INSTANCE = 99
 CONTAINER_BUNDLE = "/opt/px4"
 CONTAINER_ROOTFS = "/px4"
 SENSOR_RATE = 250.0  # Hz: what PX4 SITL expects of its simulator (IMU_INTEG_RATE 250)
-
-_PARAM_NAME = re.compile(r"^[A-Z][A-Z0-9_]{0,15}$")
 
 
 def _bundle_of(binary: Path) -> Path:
@@ -125,7 +124,7 @@ class SITL:
         if not isinstance(self.params, Mapping):
             raise ConfigurationError("params", self.params, "a mapping of PX4 name to number")
         for name, value in self.params.items():
-            if not isinstance(name, str) or not _PARAM_NAME.match(name):
+            if not isinstance(name, str) or not PARAM_NAME.match(name):
                 raise ConfigurationError(
                     "params", name, "PX4 parameter names (upper case, at most 16 characters)"
                 )

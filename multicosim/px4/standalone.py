@@ -42,15 +42,17 @@ def run_sitl(
     duration: float | None = None,
     stop: threading.Event | None = None,
     on_ready: Callable[[list[int]], None] | None = None,
+    params: dict[str, float] | None = None,
 ) -> float:
     """Run world + autopilot + UDP links paced at ``speed`` x real time.
 
+    ``params`` are PX4 parameters the autopilot starts with.
     Runs until ``duration`` simulated seconds have passed, ``stop`` is set, or Ctrl-C; returns
     the simulated time reached. ``on_ready`` gets the bound local ports once the links exist.
     """
     world = world or MuJoCo()
     links = links if links is not None else [Link(GCS_PORT, 18570), Link(API_PORT, 14580)]
-    px4 = PX4Component(world, fidelity, process=False)
+    px4 = PX4Component(world, fidelity, params=dict(params or {}), process=False)
     # PX4's API-link streams: what MAVSDK and ground stations get from real PX4 SITL.
     spec = msgspec.structs.replace(px4.spec, streams="onboard")
     sim = ProcessSimulator(seed=seed, realtime=speed)
@@ -109,6 +111,7 @@ def run_real_sitl(
     duration: float | None = None,
     stop: threading.Event | None = None,
     on_ready: Callable[[int, Path], None] | None = None,
+    params: dict[str, float] | None = None,
 ) -> float:
     """Run real PX4 SITL on our MuJoCo world, paced at ``speed`` x real time, in lockstep.
 
@@ -118,13 +121,14 @@ def run_real_sitl(
     Runs until ``duration`` simulated seconds, ``stop`` or Ctrl-C; returns the simulated
     time reached.
     ``on_ready`` gets PX4's instance number and the run directory (PX4's output and working
-    directory) once PX4 is connected.
+    directory) once PX4 is connected. ``params`` are PX4 parameters it boots with.
     """
     from .scenario import PX4Component, sitl_period
 
     world = world or MuJoCo()
     world = dataclasses.replace(world, period=sitl_period(world))
-    params = PX4Component(world, "medium", firmware=sitl).sitl_params()
+    component = PX4Component(world, "medium", params=dict(params or {}), firmware=sitl)
+    params = component.sitl_params()
     sim: Any
     if sitl.binary is None:
         # In a container on a network of its own, PX4 sends its links to the host.

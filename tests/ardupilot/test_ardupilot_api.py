@@ -28,6 +28,7 @@ EXPECTED = {
     "WaypointReached",
     "WorldConfig",
     "default_world",
+    "read_params",
 }
 
 

@@ -143,6 +143,7 @@ def test_public_names() -> None:
         "Waypoint",
         "WaypointReached",
         "WorldComponent",
+        "read_params",
         "sitl_level",
     }
     for name in px4.__all__:
