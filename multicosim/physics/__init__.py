@@ -56,17 +56,29 @@ from .config import (
     Solver,
     WorldConfig,
 )
+from .obstacles import Box, Cylinder, Obstacle, Proximity
+from .wind import LIGHT, MODERATE, SEVERE, Body, Gust, Wind
 
 __all__ = [
     "DEFAULT_HOME",
     "DEFAULT_MAGNETIC_FIELD",
     "INTEGRATORS",
+    "LIGHT",
+    "MODERATE",
+    "SEVERE",
     "SOLVERS",
+    "Body",
+    "Box",
+    "Cylinder",
+    "Gust",
     "Integrator",
+    "Obstacle",
     "Physics",
     "PhysicsDivergedError",
+    "Proximity",
     "Solver",
     "Vehicle",
+    "Wind",
     "World",
     "WorldConfig",
     "geodetic_to_local",
