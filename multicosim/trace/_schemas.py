@@ -150,6 +150,27 @@ PLAN = object_schema(
     },
     description="The planned path, in the local east-north-up frame",
 )
+OBSTACLES = object_schema(
+    "multicosim.Obstacles",
+    {
+        "obstacles": {
+            "type": "array",
+            "items": {
+                "type": "object",
+                "properties": {
+                    "name": {"type": "string"},
+                    "height": {**_NUMBER, "description": "metres above the ground"},
+                    "footprint": {
+                        "type": "array",
+                        "items": {k: v for k, v in PATH_POINT.schema.items() if k != "$schema"},
+                        "description": "the outline on the ground (up 0)",
+                    },
+                },
+            },
+        }
+    },
+    description="The world's obstacles: footprints in the local east-north-up frame, heights",
+)
 ROBUSTNESS = object_schema(
     "multicosim.Robustness",
     {

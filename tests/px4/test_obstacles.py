@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from pathlib import Path
 
 import pytest
 
@@ -18,6 +19,8 @@ from multicosim.mavlink.airframe import NONE_IRIS
 from multicosim.physics import Box, Cylinder
 from multicosim.px4.scenario import default_world
 from multicosim.search.requirements import Requirement
+from multicosim.trace import OBSTACLES_CHANNEL, Recorder, read_trace
+from multicosim.trace._plot import figure
 
 HOME = px4.Home()
 PROJ = LocalProjection(HOME.lat, HOME.lon)
@@ -80,3 +83,22 @@ def test_a_mission_past_the_box_reports_its_clearance(
     margin = Requirement("always (clearance >= 1.5)").robustness(result.trajectory)
     assert margin == pytest.approx(result.min_clearance - 1.5, abs=1e-6)
     assert Requirement("always (clearance >= 5)").robustness(result.trajectory) < 0
+
+
+@pytest.mark.fidelity("low")
+def test_the_trace_and_its_plot_show_the_obstacles(tmp_path: Path) -> None:
+    world = px4.MuJoCo(obstacles=(WALL, POLE))
+    with px4.PX4(world, fidelity="low").start() as simulation, Recorder().attach(simulation) as rec:
+        simulation.firmware.send(px4.Configuration([wp(60, 20, 10)], time_limit=120))
+    trace = read_trace(rec.save(tmp_path / "px4.mcap"))
+    (message,) = trace.topic(OBSTACLES_CHANNEL)
+    wall, pole = message.data["obstacles"]
+    assert (wall["name"], pole["name"]) == ("wall", "obstacle 1")
+    assert (wall["height"], pole["height"]) == (30, 20)
+    corners = {(round(p["north"], 6), round(p["east"], 6)) for p in wall["footprint"]}
+    assert corners == {(32.0, 5.0), (32.0, -5.0), (28.0, -5.0), (28.0, 5.0)}
+    assert all(
+        math.hypot(p["north"], p["east"] - 40) == pytest.approx(2.0) for p in pole["footprint"]
+    )
+    patches = {p.get_gid() for ax in figure(trace).axes for p in ax.patches}
+    assert {"obstacle/wall", "obstacle/obstacle 1"} <= patches
