@@ -151,11 +151,7 @@ class Placed(NamedTuple):
 
     def distance(self, north: float, east: float, up: float) -> float:
         """Signed 3-D distance (m) from a point to the solid (< 0 inside)."""
-        flat = self.footprint_distance(north, east)
-        vertical = max(-up, up - self.height)
-        if flat <= 0.0 and vertical <= 0.0:
-            return max(flat, vertical)
-        return math.hypot(max(flat, 0.0), max(vertical, 0.0))
+        return _solid(self.footprint_distance(north, east), max(-up, up - self.height))
 
     def corners(self) -> list[tuple[float, float]]:
         """The footprint's outline as (north, east) points (a polygon for a cylinder)."""
@@ -204,6 +200,13 @@ def placed(obstacles: Sequence[Obstacle], home: tuple[float, float, float]) -> l
         else:
             out.append(Placed(i, o.name, north, east, o.height, radius=o.radius))
     return out
+
+
+def _solid(flat: float, vertical: float) -> float:
+    """The signed distance to a solid from the horizontal and vertical distances to it."""
+    if flat <= 0.0 and vertical <= 0.0:
+        return max(flat, vertical)
+    return math.hypot(max(flat, 0.0), max(vertical, 0.0))
 
 
 def _axes(p: Placed) -> list[tuple[float, float]]:
@@ -282,6 +285,11 @@ class ClearanceMonitor:
         self.obstacles = list(obstacles)
         self.radius = radius
         self.proximity = NO_OBSTACLES
+        # Each footprint's enclosing circle: an obstacle whose circle is further than the
+        # nearest solid so far cannot be nearer (a cheap test before the exact one).
+        self._reach = [
+            (p, p.radius or math.hypot(p.half_length, p.half_width)) for p in self.obstacles
+        ]
 
     def update(
         self,
@@ -299,14 +307,20 @@ class ClearanceMonitor:
         """
         if not self.obstacles:
             return self.proximity
-        r = self.radius
         best, nearest, flat = math.inf, -1, math.inf
-        for p in self.obstacles:
-            d = p.distance(north, east, up) - r
+        for p, reach in self._reach:
+            # The solid's distance is never below its footprint's, which is never below
+            # the distance to its enclosing circle (so ``best`` bounds ``flat`` too).
+            if math.hypot(north - p.north, east - p.east) - reach >= best:
+                continue
+            f = p.footprint_distance(north, east)
+            flat = min(flat, f)
+            d = _solid(f, max(-up, up - p.height))
             if d < best:
                 best, nearest = d, p.number
-            f = p.footprint_distance(north, east) - r
-            flat = min(flat, f)
+        r = self.radius
+        best -= r
+        flat -= r
         touching = (nearest if best <= 0.0 else -1) if contact is None else contact
         old = self.proximity
         hit, hit_time, hit_speed = old.hit, old.hit_time, old.hit_speed

@@ -25,7 +25,7 @@ the run's seed, so a seed gives the same turbulence.
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import msgspec
 import numpy as np
@@ -140,32 +140,49 @@ def dryden_scales(altitude: float, w20: float) -> _Scales:
     return _Scales(sigma_w / base**0.4, sigma_w, h / base**1.2 * FOOT, h * FOOT)
 
 
+Mat2 = tuple[float, float, float, float]  # row-major 2x2
+
+
+def _apply(m: Mat2, x: float, y: float) -> tuple[float, float]:
+    return (m[0] * x + m[1] * y, m[2] * x + m[3] * y)
+
+
+def _flat(m: Any) -> Mat2:
+    return (float(m[0, 0]), float(m[0, 1]), float(m[1, 0]), float(m[1, 1]))
+
+
 class _SecondOrder:
-    """``sigma (1 + sqrt(3) T s) / (1 + T s)^2`` shaped noise, discretised exactly for ``dt``."""
+    """``sigma (1 + sqrt(3) T s) / (1 + T s)^2`` shaped noise, discretised exactly for ``dt``.
+
+    NumPy sets it up; a step is scalar math (it runs every physics period).
+    """
 
     def __init__(self, sigma: float, tau: float, dt: float) -> None:
         a = dt / tau
-        decay = math.exp(-a)
-        self.ad = decay * np.array([[1.0 + a, dt], [-a / tau, 1.0 - a]])
+        ad = math.exp(-a) * np.array([[1.0 + a, dt], [-a / tau, 1.0 - a]])
         # Noise covariance of one step: the integral of e^{As} B B^T e^{A^T s} over [0, dt].
         s = np.linspace(0.0, dt, 65)
         g = np.exp(-s / tau) * np.array([s, 1.0 - s / tau])
-        integrand = g[:, None, :] * g[None, :, :]
-        qd = np.trapezoid(integrand, s, axis=2)
-        self.chol = np.linalg.cholesky(qd + 1e-18 * np.eye(2))
+        qd = np.trapezoid(g[:, None, :] * g[None, :, :], s, axis=2)
         # The stationary covariance P = Ad P Ad^T + Qd; scale the output to sigma exactly.
-        kron = np.eye(4) - np.kron(self.ad, self.ad)
-        p = np.linalg.solve(kron, qd.reshape(4)).reshape(2, 2)
+        p = np.linalg.solve(np.eye(4) - np.kron(ad, ad), qd.reshape(4)).reshape(2, 2)
         c = np.array([1.0, math.sqrt(3.0) * tau])
-        self.c = c * sigma / math.sqrt(float(c @ p @ c)) if sigma > 0 else 0.0 * c
-        self.p_chol = np.linalg.cholesky(p + 1e-18 * np.eye(2))
+        gain = sigma / math.sqrt(float(c @ p @ c)) if sigma > 0 else 0.0
+        self.ad = _flat(ad)
+        self.chol = _flat(np.linalg.cholesky(qd + 1e-18 * np.eye(2)))
+        self.p_chol = _flat(np.linalg.cholesky(p + 1e-18 * np.eye(2)))
+        self.c = (gain * float(c[0]), gain * float(c[1]))
+
+    def output(self, x: float, y: float) -> float:
+        """The filter's output for its state."""
+        return self.c[0] * x + self.c[1] * y
 
 
 class DrydenTurbulence:
     """Dryden turbulence sampled every ``dt`` s: (longitudinal, lateral, vertical) m/s.
 
     ``w20`` sets the intensity, ``speed`` (m/s) the advection speed ``V``; ``rng`` draws
-    the noise (three normal variates and more per step, in a fixed order).
+    the noise (five normal variates a step, drawn in blocks, in a fixed order).
     """
 
     def __init__(self, w20: float, speed: float, dt: float, rng: np.random.Generator) -> None:
@@ -175,8 +192,10 @@ class DrydenTurbulence:
         self.rng = rng
         self._filters: dict[int, tuple[float, float, float, _SecondOrder, _SecondOrder]] = {}
         self._u: float | None = None
-        self._v = np.zeros(2)
-        self._w = np.zeros(2)
+        self._v = (0.0, 0.0)
+        self._w = (0.0, 0.0)
+        self._normals: list[float] = []
+        self._next = 0
 
     def _at(self, altitude: float) -> tuple[float, float, float, _SecondOrder, _SecondOrder]:
         key = round(altitude)
@@ -195,20 +214,33 @@ class DrydenTurbulence:
             self._filters[key] = f
         return f
 
+    def _draw(self) -> tuple[float, float, float, float, float]:
+        i = self._next
+        if i + 5 > len(self._normals):
+            self._normals = self.rng.standard_normal(5 * 1024).tolist()
+            i = 0
+        self._next = i + 5
+        n = self._normals
+        return (n[i], n[i + 1], n[i + 2], n[i + 3], n[i + 4])
+
     def step(self, altitude: float) -> tuple[float, float, float]:
         """The next sample at ``altitude`` (m above home)."""
         sigma_u, decay, kick, lateral, vertical = self._at(altitude)
-        n = self.rng.standard_normal(5)
+        n0, n1, n2, n3, n4 = self._draw()
         if self._u is None:
             # Start from the stationary distribution: the statistics hold from the first step.
-            self._u = sigma_u * n[0]
-            self._v = lateral.p_chol @ n[1:3]
-            self._w = vertical.p_chol @ self.rng.standard_normal(2)
+            self._u = sigma_u * n0
+            self._v = _apply(lateral.p_chol, n1, n2)
+            self._w = _apply(vertical.p_chol, n3, n4)
         else:
-            self._u = decay * self._u + sigma_u * kick * n[0]
-            self._v = lateral.ad @ self._v + lateral.chol @ n[1:3]
-            self._w = vertical.ad @ self._w + vertical.chol @ n[3:5]
-        return (self._u, float(lateral.c @ self._v), float(vertical.c @ self._w))
+            self._u = decay * self._u + sigma_u * kick * n0
+            v, w = self._v, self._w
+            dv, dw = _apply(lateral.chol, n1, n2), _apply(vertical.chol, n3, n4)
+            v = _apply(lateral.ad, v[0], v[1])
+            w = _apply(vertical.ad, w[0], w[1])
+            self._v = (v[0] + dv[0], v[1] + dv[1])
+            self._w = (w[0] + dw[0], w[1] + dw[1])
+        return (self._u, lateral.output(*self._v), vertical.output(*self._w))
 
 
 def wind_generator(seed: int) -> np.random.Generator:
