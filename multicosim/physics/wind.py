@@ -61,9 +61,9 @@ MAX_WIND = 100.0  # m/s
 
 
 class Gust(msgspec.Struct, frozen=True, kw_only=True):
-    """A discrete gust of the 1-cosine shape: from ``start`` (s) it rises to ``speed`` (m/s)
-    and falls back to 0 over ``duration`` (s), blowing from ``direction`` (degrees clockwise
-    from north)."""
+    """A discrete gust of the 1-cosine shape: from ``start`` (simulated seconds since the world
+    started) it rises to ``speed`` (m/s) and falls back to 0 over ``duration`` (s), blowing
+    from ``direction`` (degrees clockwise from north)."""
 
     start: float
     duration: float
