@@ -268,6 +268,8 @@ class World:
         # The first readings are published before any step: they must describe the state
         # the vehicle may have just set.
         self.physics.forward()
+        if surroundings is not None:
+            physics.proximity = surroundings.measure(physics.model, physics.data, ctx.time)
 
     def step(self, ctx: StepContext) -> None:
         """Apply commands, integrate up to ``ctx.time``, publish sensors."""

@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import math
 
+import cartpole
 import mujoco
 import numpy as np
 import pytest
 
+import multicosim as mcs
 from multicosim.mavlink.quadrotor import QuadrotorVehicle
-from multicosim.physics import Box, Cylinder, WorldConfig
+from multicosim.physics import Box, Cylinder, Wind, World, WorldConfig
 from multicosim.physics._surroundings import Surroundings
 
 BOX = Box(length=6, width=2, height=5, north=20, east=10, yaw=30)
@@ -81,3 +83,19 @@ def test_mujoco_distances_equal_the_analytic_ones(
             fromto = np.zeros(6)
             measured = mujoco.mj_geomDistance(model, data, sphere, geom, 50.0, fromto)
             assert measured == pytest.approx(expected, abs=1e-3)
+
+
+@pytest.mark.parametrize(
+    ("config", "field"),
+    [
+        (WorldConfig(wind=Wind(speed=3.0)), "wind"),
+        (WorldConfig(obstacles=(CYLINDER,)), "obstacles"),
+    ],
+)
+def test_a_vehicle_without_a_body_cannot_fly_among_obstacles_or_in_wind(
+    config: WorldConfig, field: str
+) -> None:
+    with pytest.raises(mcs.ConfigurationError) as info:
+        World(config, cartpole.CartPole())
+    assert info.value.field == field
+    assert "physics.Bodied" in info.value.allowed
