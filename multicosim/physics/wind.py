@@ -24,6 +24,7 @@ the run's seed, so a seed gives the same turbulence.
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Any, NamedTuple
 
@@ -161,7 +162,7 @@ class _SecondOrder:
         a = dt / tau
         ad = math.exp(-a) * np.array([[1.0 + a, dt], [-a / tau, 1.0 - a]])
         # Noise covariance of one step: the integral of e^{As} B B^T e^{A^T s} over [0, dt].
-        s = np.linspace(0.0, dt, 65)
+        s = np.linspace(0.0, dt, 33)
         g = np.exp(-s / tau) * np.array([s, 1.0 - s / tau])
         qd = np.trapezoid(g[:, None, :] * g[None, :, :], s, axis=2)
         # The stationary covariance P = Ad P Ad^T + Qd; scale the output to sigma exactly.
@@ -178,6 +179,23 @@ class _SecondOrder:
         return self.c[0] * x + self.c[1] * y
 
 
+_Filters = tuple[float, float, float, _SecondOrder, _SecondOrder]
+
+
+@functools.lru_cache(maxsize=4096)
+def _filters(w20: float, speed: float, dt: float, altitude: int) -> _Filters:
+    """The three filters at a whole-metre ``altitude`` (shared by runs: setting up costs)."""
+    sc = dryden_scales(float(altitude), w20)
+    decay = math.exp(-speed * dt / sc.length_u)
+    return (
+        sc.sigma_u,
+        decay,
+        math.sqrt(1.0 - decay * decay),
+        _SecondOrder(sc.sigma_u, sc.length_u / speed, dt),
+        _SecondOrder(sc.sigma_w, sc.length_w / speed, dt),
+    )
+
+
 class DrydenTurbulence:
     """Dryden turbulence sampled every ``dt`` s: (longitudinal, lateral, vertical) m/s.
 
@@ -190,28 +208,18 @@ class DrydenTurbulence:
         self.speed = max(speed, MIN_DRYDEN_SPEED)
         self.dt = dt
         self.rng = rng
-        self._filters: dict[int, tuple[float, float, float, _SecondOrder, _SecondOrder]] = {}
+        self._filters: dict[int, _Filters] = {}
         self._u: float | None = None
         self._v = (0.0, 0.0)
         self._w = (0.0, 0.0)
         self._normals: list[float] = []
         self._next = 0
 
-    def _at(self, altitude: float) -> tuple[float, float, float, _SecondOrder, _SecondOrder]:
+    def _at(self, altitude: float) -> _Filters:
         key = round(altitude)
         f = self._filters.get(key)
         if f is None:
-            sc = dryden_scales(float(key), self.w20)
-            v = self.speed
-            decay = math.exp(-v * self.dt / sc.length_u)
-            f = (
-                sc.sigma_u,
-                decay,
-                math.sqrt(1.0 - decay * decay),
-                _SecondOrder(sc.sigma_u, sc.length_u / v, self.dt),
-                _SecondOrder(sc.sigma_w, sc.length_w / v, self.dt),
-            )
-            self._filters[key] = f
+            f = self._filters[key] = _filters(self.w20, self.speed, self.dt, key)
         return f
 
     def _draw(self) -> tuple[float, float, float, float, float]:
