@@ -293,6 +293,7 @@ class ArduPilotSimulation(ScenarioSimulation):
             downlink=DOWNLINK,
             truth=world.topic("truth", TRUTH_TOPIC),
             home=world.home,
+            obstacles=world.obstacles,
             types={SERVO_TOPIC: ServoOutputs},
             dialect_name="ardupilotmega",
         )

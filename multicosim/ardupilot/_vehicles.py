@@ -65,7 +65,8 @@ class ArduCopterVehicle(QuadrotorVehicle):
     def sense(self, physics: Physics, ctx: StepContext) -> None:
         """Publish the true state reached."""
         assert self._projection is not None, "setup() was not called"
-        ctx.publish(self._truth_topic, truth(ctx.time, self.state(physics), self._projection))
+        state = self.state(physics)
+        ctx.publish(self._truth_topic, truth(ctx.time, state, self._projection, physics.proximity))
 
 
 class ArduRoverVehicle(RoverVehicle):

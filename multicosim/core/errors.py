@@ -37,6 +37,7 @@ Exceptions of the libraries underneath are turned into these in one place,
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 __all__ = [
@@ -56,6 +57,7 @@ __all__ = [
     "SimulationStopped",
     "TraceError",
     "TransportError",
+    "check_number",
     "translate",
 ]
 
@@ -254,6 +256,20 @@ def tidy_expected(message: str) -> str:
     names = [n.strip() for n in expected.strip("{}").split(",")]
     names = [n for n in names if n and n != "<INVALID>"]
     return f"{head}, expecting one of {', '.join(names)}" if names else head
+
+
+def check_number(
+    field: str, value: object, lo: float = -math.inf, hi: float = math.inf, *, open_lo: bool = False
+) -> float:
+    """Return ``value`` as a float if it is a finite number in range, else raise."""
+    bracket = "(" if open_lo else "["
+    allowed = f"a finite number in {bracket}{lo:g}, {hi:g}]"
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ConfigurationError(field, value, allowed)
+    v = float(value)
+    if not math.isfinite(v) or v < lo or v > hi or (open_lo and v == lo):
+        raise ConfigurationError(field, value, allowed)
+    return v
 
 
 # Shown under the name users import them by: ``multicosim.NodeCrashedError`` in tracebacks and

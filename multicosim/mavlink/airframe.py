@@ -12,6 +12,7 @@ No MuJoCo import here: the autopilot's mixer reads the same numbers without phys
 from __future__ import annotations
 
 import dataclasses
+import math
 
 __all__ = ["NONE_IRIS", "Airframe", "Rotor"]
 
@@ -40,6 +41,9 @@ class Airframe:
     max_thrust: float  # N per rotor at motor output 1.0
     motor_time_constant: float  # s, first-order lag from output to thrust
     leg_height: float = 0.1  # m from the centre of mass down to the ground contact
+    prop_radius: float = 0.12  # m
+    drag_coefficient: float = 1.0  # of the body in any direction, for the wind's drag
+    drag_area: float = 0.06  # m^2, the reference area of that coefficient
 
     def mjcf(self) -> str:
         """The MuJoCo model: world frame east-north-up, body frame forward-left-up.
@@ -54,7 +58,7 @@ class Airframe:
             # FRD y (right) is FLU -y; the reaction torque about "up" is -km per newton.
             sites.append(
                 f'<site name="rotor{i}" pos="{r.x:g} {-r.y:g} 0.02" type="cylinder" '
-                f'size="0.12 0.005"/>'
+                f'size="{self.prop_radius:g} 0.005"/>'
             )
             actuators.append(
                 f'<general name="motor{i}" class="rotor" site="rotor{i}" '
@@ -98,6 +102,12 @@ class Airframe:
   </sensor>
 </mujoco>
 """
+
+    @property
+    def radius(self) -> float:
+        """Radius (m) of the sphere about the centre of mass that holds rotors and props."""
+        arm = max(math.hypot(r.x, r.y) for r in self.rotors)
+        return max(arm + self.prop_radius, self.leg_height + 0.02)
 
     @property
     def ground_offset(self) -> float:

@@ -18,6 +18,7 @@ from typing import Any, Literal
 
 import msgspec
 
+from ..physics.obstacles import NO_OBSTACLES
 from ..runtime.context import FirmwareContext
 from ..runtime.serve import Firmware
 from .dialect import (
@@ -43,7 +44,7 @@ from .dialect import (
     new_link,
 )
 from .hil import MavlinkPacket, Truth
-from .mission import Configuration, FlightSample, MissionResult, WaypointReached
+from .mission import Collision, Configuration, FlightSample, MissionResult, WaypointReached
 from .plan_link import plan_items, upload_plan_areas, waypoint_indices
 
 __all__ = [
@@ -242,6 +243,7 @@ class GroundStation:
         self.recording = False
         self.position: Any = None
         self.version = ""
+        self.collision: Collision | None = None
         self._next_heartbeat = 0.0
 
     # -- link -------------------------------------------------------------------------------
@@ -276,6 +278,14 @@ class GroundStation:
         # position, as during a GPS loss, with the last it reported).
         if self.recording and self.position is not None:
             self._sample(self.position)
+        truth = self.truth.latest
+        hit = truth.proximity if truth is not None else None
+        if hit is not None and hit.hit >= 0 and self.collision is None and self.recording:
+            self.collision = Collision(time=hit.hit_time, obstacle=hit.hit, speed=hit.hit_speed)
+            raise MissionFailed(
+                f"collision with obstacle {hit.hit} at t={hit.hit_time:.2f} s "
+                f"({hit.hit_speed:.1f} m/s)"
+            )
 
     def _on(self, m: Any) -> None:
         kind = m.get_type()
@@ -323,6 +333,7 @@ class GroundStation:
     def _sample(self, g: Any) -> None:
         att, loc = self.attitude, self.local
         truth = self.truth.latest
+        near = truth.proximity if truth else NO_OBSTACLES
         hb = self.heartbeat
         self.samples.append(
             FlightSample(
@@ -345,6 +356,9 @@ class GroundStation:
                 true_lat=truth.lat if truth else math.nan,
                 true_lon=truth.lon if truth else math.nan,
                 true_alt=truth.alt if truth else math.nan,
+                clearance=near.clearance,
+                footprint_clearance=near.footprint,
+                collision=near.contact >= 0 or (near.hit >= 0 and self.collision is None),
             )
         )
 
@@ -459,6 +473,8 @@ class GroundStation:
             armed=self.armed,
             messages=list(self.texts),
             firmware_version=self.version,
+            collision=self.collision,
+            min_clearance=min((s.clearance for s in self.samples), default=math.inf),
         )
 
     def _fly(self, config: Configuration, start: float) -> bool:

@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any, Literal, TypeVar
 
 import msgspec
 
+from ..physics.obstacles import NO_OBSTACLES, Proximity
 from .dialect import dialect, new_link
 
 if TYPE_CHECKING:
@@ -107,7 +108,10 @@ class MavlinkPacket(msgspec.Struct, frozen=True, array_like=True, gc=False):
 class Truth(msgspec.Struct, frozen=True, array_like=True, gc=False):
     """The world's ground truth: local NED position (m) from home, velocity, WGS84 position,
     attitude (unit quaternion w, x, y, z rotating FRD body axes into NED), body rates and the
-    specific force (m/s^2, body FRD: what an ideal accelerometer reads, gravity included)."""
+    specific force (m/s^2, body FRD: what an ideal accelerometer reads, gravity included), and
+    how close the vehicle is to the world's obstacles (a :class:`~multicosim.physics.Proximity`:
+    clearances in m, infinite without obstacles; the obstacle touched now and the first one
+    hit, -1 for none)."""
 
     time: float
     north: float
@@ -129,6 +133,7 @@ class Truth(msgspec.Struct, frozen=True, array_like=True, gc=False):
     xacc: float = 0.0
     yacc: float = 0.0
     zacc: float = 0.0
+    proximity: Proximity = NO_OBSTACLES
 
 
 HilMessage = HilSensor | HilGps | HilActuatorControls
@@ -211,8 +216,16 @@ def payload_type(wire: Wire, tp: type[M]) -> type[M] | type[MavlinkPacket]:
     return tp if wire == "native" else MavlinkPacket
 
 
-def truth(time: float, state: NedState, projection: LocalProjection) -> Truth:
+def truth(
+    time: float,
+    state: NedState,
+    projection: LocalProjection,
+    proximity: Proximity = NO_OBSTACLES,
+) -> Truth:
     """The world's Truth message for ``state`` at simulated ``time`` (WGS84 via ``projection``)."""
     ned, vel, q, accel, gyro = state
     lat, lon = projection.reproject(ned[0], ned[1])
-    return Truth(time, *ned, *vel, lat, lon, -ned[2], *q, *gyro, *accel)
+    return Truth(
+        time, *ned, *vel, lat, lon, -ned[2], *q, *gyro, *accel,
+        proximity,
+    )  # fmt: skip

@@ -13,7 +13,7 @@ from typing import Literal
 
 import msgspec
 
-from ..core.errors import ConfigurationError
+from ..core.errors import ConfigurationError, check_number
 from ..core.geo import Home, LocalProjection
 from ..physics.config import WorldConfig, check_sensor_topics
 from .dialect import (
@@ -27,6 +27,7 @@ from .dialect import (
 from .plan import Plan, PlanItem, read_plan, write_plan
 
 __all__ = [
+    "Collision",
     "Configuration",
     "FlightSample",
     "Geofence",
@@ -40,20 +41,6 @@ __all__ = [
 ]
 
 MissionEnd = Literal["land", "rtl", "hold"]
-
-
-def check_number(
-    field: str, value: object, lo: float = -math.inf, hi: float = math.inf, *, open_lo: bool = False
-) -> float:
-    """Return ``value`` as a float if it is a finite number in range, else raise."""
-    bracket = "(" if open_lo else "["
-    allowed = f"a finite number in {bracket}{lo:g}, {hi:g}]"
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise ConfigurationError(field, value, allowed)
-    v = float(value)
-    if not math.isfinite(v) or v < lo or v > hi or (open_lo and v == lo):
-        raise ConfigurationError(field, value, allowed)
-    return v
 
 
 class Topics(msgspec.Struct, frozen=True):
@@ -258,6 +245,10 @@ class FlightSample(msgspec.Struct, frozen=True, kw_only=True):
     medium fidelity and above, 10 Hz at low).
     ``mode`` is PX4's mode name (``AUTO.MISSION``), ``current`` the MAVLink sequence number
     of the current mission item (0: takeoff, 1..n: the configured waypoints, then land/RTL).
+    ``clearance`` is the true 3-D distance (m) from the vehicle's body to the nearest
+    obstacle, ``footprint_clearance`` the 2-D distance from its footprint to the nearest
+    obstacle's footprint (both infinite in a world without obstacles, negative inside one);
+    ``collision`` says it touches an obstacle.
     """
 
     time: float
@@ -279,6 +270,18 @@ class FlightSample(msgspec.Struct, frozen=True, kw_only=True):
     true_lat: float
     true_lon: float
     true_alt: float
+    clearance: float = math.inf
+    footprint_clearance: float = math.inf
+    collision: bool = False
+
+
+class Collision(msgspec.Struct, frozen=True, kw_only=True):
+    """The vehicle hit ``obstacle`` (its index in ``WorldConfig.obstacles``) at simulated
+    ``time`` (s), moving at ``speed`` (m/s)."""
+
+    time: float
+    obstacle: int
+    speed: float
 
 
 class WaypointReached(msgspec.Struct, frozen=True, kw_only=True):
@@ -294,7 +297,9 @@ class MissionResult(msgspec.Struct, frozen=True, kw_only=True):
     ``completed`` says whether the mission ran to its configured end (landed and disarmed,
     or holding at the last waypoint); ``reason`` says why not. ``messages`` holds the
     autopilot's STATUSTEXT messages; ``firmware_version`` the flight software version it
-    reported (AUTOPILOT_VERSION, e.g. ``"1.15.4"``).
+    reported (AUTOPILOT_VERSION, e.g. ``"1.15.4"``). ``collision`` is the first collision
+    with an obstacle (the mission ends there), ``min_clearance`` the smallest 3-D clearance
+    the trajectory saw (infinite without obstacles).
     """
 
     trajectory: list[FlightSample]
@@ -307,6 +312,8 @@ class MissionResult(msgspec.Struct, frozen=True, kw_only=True):
     armed: bool
     messages: list[str] = msgspec.field(default_factory=list)
     firmware_version: str = ""
+    collision: Collision | None = None
+    min_clearance: float = math.inf
 
     @property
     def duration(self) -> float:

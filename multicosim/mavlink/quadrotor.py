@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any
 import mujoco
 
 from ..physics.frames import NedState, ned_state
+from ..physics.wind import Body
 from ..physics.world import Physics
 from .airframe import NONE_IRIS, Airframe
 from .dialect import MODE_FLAG_ARMED
@@ -46,10 +47,11 @@ class QuadrotorVehicle:
         self._hil: HilSensors | None = None
         self._cmd: HilActuatorControls | None = None
         self._motors = len(airframe.rotors)
+        self.body = Body("vehicle", airframe.radius, airframe.drag_coefficient, airframe.drag_area)
 
     def load_model(self) -> Any:
-        """The MJCF model generated from the airframe."""
-        return mujoco.MjModel.from_xml_string(self.airframe.mjcf())
+        """The MJCF model generated from the airframe (a spec: the world adds obstacles)."""
+        return mujoco.MjSpec.from_string(self.airframe.mjcf())
 
     def setup(self, physics: Physics, ctx: StepContext, topics: Mapping[str, str]) -> None:
         """Subscribe to the actuator outputs; set up the sensor suite."""
@@ -82,7 +84,7 @@ class QuadrotorVehicle:
         """Publish PX4's sensor messages for the state reached."""
         hil = self._hil
         assert hil is not None, "setup() was not called"
-        hil.publish(ctx, *self.state(physics))
+        hil.publish(ctx, *self.state(physics), proximity=physics.proximity)
 
     def state(self, physics: Physics) -> NedState:
         """The vehicle's true state now, in NED/FRD (from MuJoCo's ENU/FLU)."""

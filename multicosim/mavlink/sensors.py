@@ -26,6 +26,7 @@ from typing import Any
 from ..core.geo import LocalProjection, pressure_hpa, rotate_to_body
 from ..physics.config import WorldConfig
 from ..physics.frames import NedState, Vec3
+from ..physics.obstacles import NO_OBSTACLES, Proximity
 from ..runtime.context import StepContext
 from .hil import BARO_FIELDS, IMU_FIELDS, MAG_FIELDS, HilGps, HilSensor, Wire, pack, truth
 from .mission import Topics, world_topics
@@ -117,12 +118,14 @@ class HilSensors:
         q: tuple[float, float, float, float],
         accel: Vec3,
         gyro: Vec3,
+        *,
+        proximity: Proximity = NO_OBSTACLES,
     ) -> None:
         """Publish what is due at ``ctx.time`` for the true state given.
 
         ``ned``/``vel``: position (m, from home) and velocity (m/s) in NED; ``q``: attitude
         (w, x, y, z, FRD body to NED); ``accel``: specific force and ``gyro``: angular rate,
-        both in the body frame.
+        both in the body frame; ``proximity``: the vehicle's clearances, for the truth.
         """
         n = self._n
         self._n = n + 1
@@ -162,7 +165,7 @@ class HilSensors:
             self._emit(ctx, topics.gps, self._gps(t_us, ned, vel, alt_msl))
         if n % self._truth_every == 0:
             state = NedState(ned, vel, q, accel, gyro)
-            ctx.publish(topics.truth, truth(ctx.time, state, self.proj))
+            ctx.publish(topics.truth, truth(ctx.time, state, self.proj, proximity))
 
     def _gps(self, t_us: int, ned: Vec3, vel: Vec3, alt_msl: float) -> HilGps:
         k = self._noise

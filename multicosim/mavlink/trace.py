@@ -11,6 +11,7 @@
 * ``px4/location/estimate`` (GLOBAL_POSITION_INT) and ``px4/location/truth`` (the world's
   truth): two ``foxglove.LocationFix`` tracks; ``mcs/path/estimate`` and ``mcs/path/truth``
   the same in metres from home, for the plot.
+* ``mcs/obstacles``: the world's obstacles (footprints and heights), for the plot.
 * ``px4/mission``: the uploaded mission (MISSION_ITEM_INT) as ``foxglove.GeoJSON`` for the
   Map panel, and ``mcs/plan`` for the plot.
 * The layout plots each position setpoint (POSITION_TARGET_LOCAL_NED) beside the estimate.
@@ -22,15 +23,18 @@ import functools
 import inspect
 import json
 import math
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Sequence
 from typing import TYPE_CHECKING, Any
 
 from ..core.geo import LocalProjection, quaternion_from_euler, swap_attitude_frames
+from ..physics.obstacles import Obstacle, placed
 from ..trace import (
     DIALECT,
     GEOJSON,
     LOCATION_FIX,
     LOG,
+    OBSTACLES,
+    OBSTACLES_CHANNEL,
     PATH_CHANNEL,
     PATH_POINT,
     PLAN,
@@ -278,15 +282,29 @@ class _Links:
 
 
 class _Truth:
-    """The world's truth as a LocationFix track and a path in metres from home."""
+    """The world's truth as a LocationFix track and a path in metres from home; with its
+    first message, the world's obstacles."""
 
-    def __init__(self, topic: str, home: Home) -> None:
+    def __init__(self, topic: str, home: Home, obstacles: Sequence[Obstacle]) -> None:
         self.topics = (topic,)
         self._home_alt = home.alt
+        self._obstacles: list[Converted] = []
+        if obstacles:
+            shapes = [
+                {
+                    "name": p.label,
+                    "height": p.height,
+                    "footprint": [{"east": e, "north": n, "up": 0.0} for n, e in p.corners()],
+                }
+                for p in placed(obstacles, home)
+            ]
+            self._obstacles.append(Converted(OBSTACLES_CHANNEL, OBSTACLES, {"obstacles": shapes}))
 
     def __call__(self, topic: str, time_ns: int, message: Any) -> Iterable[Converted]:
         m = message
+        once, self._obstacles = self._obstacles, []
         return (
+            *once,
             Converted(
                 TRUTH_FIX,
                 LOCATION_FIX,
@@ -309,11 +327,13 @@ def mission_trace(
     types: dict[str, Any],
     links: tuple[str, ...] | None = None,
     dialect_name: str = "common",
+    obstacles: Sequence[Obstacle] = (),
 ) -> TraceOptions:
     """Trace options of a ground station's MAVLink link and the world's truth (any autopilot).
 
     ``links`` are the MAVLink topics decoded into channels (default: the uplink and the
-    downlink); ``types`` the other topics' message types.
+    downlink); ``types`` the other topics' message types; ``obstacles`` the world's (their
+    footprints go to ``mcs/obstacles``, for the plot).
     """
     links = links or (uplink, downlink)
     types = {**types, truth: Truth, uplink: MavlinkPacket, downlink: MavlinkPacket}
@@ -337,7 +357,10 @@ def mission_trace(
     )
     return TraceOptions(
         types=types,
-        converters=[_Links(links, uplink, downlink, home, dialect_name), _Truth(truth, home)],
+        converters=[
+            _Links(links, uplink, downlink, home, dialect_name),
+            _Truth(truth, home, obstacles),
+        ],
         replaced=links,
         tlog=(uplink, downlink),
         plots=plots,

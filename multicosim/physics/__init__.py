@@ -32,6 +32,12 @@ is a class in the user's own module::
     def world(config: WorldConfig) -> World:
         return World(config, Pendulum())
 
+The world also holds obstacles (:class:`Box`, :class:`Cylinder`) and wind (:class:`Wind`:
+steady, gusts, Dryden turbulence) from ``WorldConfig(obstacles=..., wind=...)``. A vehicle
+that meets them describes its body (:class:`Bodied`: a ``body`` attribute, a :class:`Body`
+naming its MuJoCo body, the radius that encloses it and its drag) and returns an ``MjSpec``
+from ``load_model()``, so the world can add the obstacles' geoms before compiling.
+
 ``python -m multicosim participant mymodule:world --config JSON`` runs that world as a
 process (``multicosim.local.participant_command("mymodule:world", config)`` builds the
 command), ``mcs.InProcessComponent(lambda: world(config), name="world")`` in the
@@ -56,17 +62,30 @@ from .config import (
     Solver,
     WorldConfig,
 )
+from .obstacles import Box, Cylinder, Obstacle, Proximity
+from .wind import LIGHT, MODERATE, SEVERE, Body, Gust, Wind
 
 __all__ = [
     "DEFAULT_HOME",
     "DEFAULT_MAGNETIC_FIELD",
     "INTEGRATORS",
+    "LIGHT",
+    "MODERATE",
+    "SEVERE",
     "SOLVERS",
+    "Bodied",
+    "Body",
+    "Box",
+    "Cylinder",
+    "Gust",
     "Integrator",
+    "Obstacle",
     "Physics",
     "PhysicsDivergedError",
+    "Proximity",
     "Solver",
     "Vehicle",
+    "Wind",
     "World",
     "WorldConfig",
     "geodetic_to_local",
@@ -76,6 +95,7 @@ __all__ = [
 
 # These import mujoco, so they load on first use.
 _LAZY = {
+    "Bodied": ".world",
     "Physics": ".world",
     "PhysicsDivergedError": "..core.errors",
     "Vehicle": ".world",
@@ -85,7 +105,7 @@ _LAZY = {
 
 if TYPE_CHECKING:
     from ..core.errors import PhysicsDivergedError
-    from .world import Physics, Vehicle, World, load_model
+    from .world import Bodied, Physics, Vehicle, World, load_model
 
 
 __getattr__, __dir__ = lazy_exports(__name__, _LAZY, __all__)

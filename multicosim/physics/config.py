@@ -13,6 +13,8 @@ from typing import Literal
 
 from ..core.errors import ConfigurationError
 from ..core.geo import Home
+from .obstacles import Box, Cylinder, check_obstacles
+from .wind import Wind
 
 __all__ = [
     "DEFAULT_HOME",
@@ -62,6 +64,10 @@ class WorldConfig:
     the (latitude, longitude, altitude) of the local origin (a :class:`~multicosim.core.geo.Home`);
     ``magnetic_field`` is Earth's field in the local ENU frame (tesla). ``noise`` scales the
     vehicle's sensor-noise model: 0 gives ideal sensors, 1 the vehicle's realistic model.
+    ``obstacles`` are :class:`~multicosim.physics.Box` and :class:`~multicosim.physics.Cylinder`
+    standing on the ground (none may overlap another or stand within 1 m of home); ``wind``
+    is the air's motion (:class:`~multicosim.physics.Wind`; None: still air and no
+    aerodynamic drag beyond MuJoCo's own).
     """
 
     timestep: float = 0.002
@@ -73,6 +79,8 @@ class WorldConfig:
     home: Home = DEFAULT_HOME
     magnetic_field: tuple[float, float, float] = DEFAULT_MAGNETIC_FIELD
     noise: float = 1.0
+    obstacles: tuple[Box | Cylinder, ...] = ()
+    wind: Wind | None = None
 
     def __post_init__(self) -> None:
         timestep = _number("timestep", self.timestep)
@@ -120,7 +128,11 @@ class WorldConfig:
         noise = _number("noise", self.noise)
         if not 0.0 <= noise <= MAX_NOISE:
             raise ConfigurationError("noise", self.noise, f"0 <= noise <= {MAX_NOISE:g}")
+        obstacles = check_obstacles(self.obstacles, (lat, lon, 0.0))
+        if self.wind is not None and not isinstance(self.wind, Wind):
+            raise ConfigurationError("wind", self.wind, "None or a physics.Wind")
         # Decoded from JSON these arrive as lists; keep them tuples so configs compare equal.
+        object.__setattr__(self, "obstacles", obstacles)
         object.__setattr__(self, "home", Home(*(float(v) for v in home)))
         object.__setattr__(self, "noise", noise)
         object.__setattr__(self, "magnetic_field", tuple(float(v) for v in field))

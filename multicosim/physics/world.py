@@ -12,23 +12,26 @@ from __future__ import annotations
 import logging
 import os
 from collections.abc import Mapping
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
 from ..core.deps import require
-from ..core.errors import MulticosimError, PhysicsDivergedError
+from ..core.errors import ConfigurationError, MulticosimError, PhysicsDivergedError
 from ..core.geo import GRAVITY, local_to_geodetic
 from .config import WorldConfig, check_sensor_topics
+from .obstacles import NO_OBSTACLES, Proximity
+from .wind import Body
 
 if TYPE_CHECKING:
     import numpy as np
     import numpy.typing as npt
 
     from ..runtime.context import StepContext
+    from ._surroundings import Surroundings
 
 require("mujoco", "mujoco")
 import mujoco  # noqa: E402 - after the check, which names the extra
 
-__all__ = ["Physics", "Vehicle", "World", "load_model"]
+__all__ = ["Bodied", "Physics", "Vehicle", "World", "load_model"]
 
 log = logging.getLogger(__name__)
 
@@ -84,6 +87,8 @@ class Physics:
         self.data = mujoco.MjData(model)
         self._steps = 0
         self._sensors: dict[str, slice] = {}
+        self.proximity: Proximity = NO_OBSTACLES
+        """The vehicle's clearances and collisions for the current state (set by the World)."""
         self.forward()
 
     @classmethod
@@ -166,6 +171,9 @@ class Vehicle(Protocol):
     at every period ``actuate`` (apply the latest commands to ``data.ctrl``), integrates, and
     ``sense`` (publish what the sensors read now). Any class with these members is one: the
     shipped vehicles and a user's own alike (see the package docstring for an example).
+    ``load_model`` may return an ``MjSpec`` instead of an ``MjModel``: the world then adds
+    its obstacles to it before compiling it. A vehicle that flies among obstacles or in
+    wind also describes its body (:class:`Bodied`).
     """
 
     @property
@@ -194,6 +202,16 @@ class Vehicle(Protocol):
         ...
 
 
+@runtime_checkable
+class Bodied(Protocol):
+    """A vehicle that describes its body to the world: for obstacles, clearances and drag."""
+
+    @property
+    def body(self) -> Body:
+        """Its MuJoCo body, enclosing radius and drag (a plain attribute will do)."""
+        ...
+
+
 class World:
     """A participant that steps MuJoCo in lockstep with the simulation's clock.
 
@@ -209,6 +227,19 @@ class World:
         self.period = config.period
         self.physics: Physics | None = None
         self._start: float | None = None
+        self._surroundings: Surroundings | None = None
+        if config.obstacles or config.wind is not None:
+            if not isinstance(vehicle, Bodied):
+                field = "obstacles" if config.obstacles else "wind"
+                raise ConfigurationError(
+                    field,
+                    getattr(config, field),
+                    f"none for a vehicle that does not describe its body ({vehicle!r} has no "
+                    "`body`: see physics.Bodied)",
+                )
+            from ._surroundings import Surroundings
+
+            self._surroundings = Surroundings(config, vehicle.body)
 
     @property
     def topics(self) -> dict[str, str]:
@@ -217,11 +248,28 @@ class World:
 
     def setup(self, ctx: StepContext) -> None:
         """Load the model, let the vehicle subscribe (and set its initial state)."""
-        self.physics = Physics(self.vehicle.load_model(), self.config)
-        self.vehicle.setup(self.physics, ctx, self.topics)
+        model = self.vehicle.load_model()
+        surroundings = self._surroundings
+        if isinstance(model, mujoco.MjSpec):
+            if surroundings is not None:
+                surroundings.attach(model)
+            model = model.compile()
+        elif surroundings is not None and surroundings.placed:
+            raise ConfigurationError(
+                "obstacles",
+                self.config.obstacles,
+                "none for a vehicle whose load_model() returns a compiled MjModel (return "
+                "an MjSpec so the world can add them)",
+            )
+        self.physics = physics = Physics(model, self.config)
+        if surroundings is not None:
+            surroundings.bind(model, ctx.seed, self.period)
+        self.vehicle.setup(physics, ctx, self.topics)
         # The first readings are published before any step: they must describe the state
         # the vehicle may have just set.
         self.physics.forward()
+        if surroundings is not None:
+            physics.proximity = surroundings.measure(physics.model, physics.data, ctx.time)
 
     def step(self, ctx: StepContext) -> None:
         """Apply commands, integrate up to ``ctx.time``, publish sensors."""
@@ -232,7 +280,13 @@ class World:
             # starts at zero when it is first stepped.
             self._start = ctx.time
         self.vehicle.actuate(physics, ctx)
-        physics.step_to(ctx.time - self._start)
+        surroundings = self._surroundings
+        if surroundings is None:
+            physics.step_to(ctx.time - self._start)
+        else:
+            surroundings.blow(physics.model, physics.data, physics.time)
+            physics.step_to(ctx.time - self._start)
+            physics.proximity = surroundings.measure(physics.model, physics.data, ctx.time)
         self.vehicle.sense(physics, ctx)
 
     def close(self) -> None:

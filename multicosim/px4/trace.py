@@ -43,6 +43,7 @@ def trace_options(spec: AutopilotSpec, world: MuJoCo) -> TraceOptions:
         downlink=spec.downlink,
         truth=topics.truth,
         home=world.home,
+        obstacles=world.obstacles,
         types=types,
         links=(spec.uplink, spec.downlink, *(sorted(hil) if mavlink_wire else ())),
     )

@@ -22,10 +22,13 @@ import msgspec
 
 from ..core.errors import ConfigurationError
 from ..core.geo import GRAVITY
+from ..mavlink.airframe import NONE_IRIS
 from ..mavlink.dialect import MODE_FLAG_ARMED
 from ..mavlink.hil import ACTUATOR_FLAG_VELOCITY, HilActuatorControls, MavlinkPacket, Wire, read
 from ..mavlink.sensors import HilSensors
 from ..physics.config import WorldConfig
+from ..physics.obstacles import ClearanceMonitor, placed
+from ..physics.wind import Body, WindField, drag_force, wind_generator
 from ..runtime.context import StepContext, Subscription
 
 __all__ = ["PointMassWorld", "WorldSpec", "world"]
@@ -61,6 +64,8 @@ class PointMassWorld:
     The low-fidelity world: the autopilot sends its velocity setpoint in
     HIL_ACTUATOR_CONTROLS (flagged by ``ACTUATOR_FLAG_VELOCITY``) and the point mass follows
     it with a first-order lag, standing in for the attitude and rate loops. Sensors are ideal.
+    The world's obstacles are measured analytically (a collision is the body's sphere
+    touching one) and its wind pushes the mass through the airframe's drag.
     """
 
     def __init__(self, spec: WorldSpec) -> None:
@@ -75,9 +80,22 @@ class PointMassWorld:
         self._actuators: Subscription[Any] | None = None
         self._cmd: HilActuatorControls | None = None
         self._mavlink = spec.wire == "mavlink"
+        airframe = NONE_IRIS
+        self.mass = airframe.mass
+        self.body = Body("vehicle", airframe.radius, airframe.drag_coefficient, airframe.drag_area)
+        self._monitor = ClearanceMonitor(
+            placed(spec.world.obstacles, spec.world.home), self.body.radius
+        )
+        self._wind: WindField | None = None
+        self._time = 0.0
+        self.air = (0.0, 0.0, 0.0)
+        # The body's centre stands this high when the point mass is on the ground.
+        self._height = airframe.ground_offset
 
     def setup(self, ctx: StepContext) -> None:
-        """Subscribe to the actuator outputs."""
+        """Subscribe to the actuator outputs; seed the wind."""
+        if self.spec.world.wind is not None:
+            self._wind = WindField(self.spec.world.wind, self.period, wind_generator(ctx.seed))
         tp = MavlinkPacket if self._mavlink else HilActuatorControls
         self._actuators = ctx.subscribe(self._hil.topics.actuators, tp)
         self._hil.setup(ctx)
@@ -90,6 +108,14 @@ class PointMassWorld:
             latest = sub.latest
             self._cmd = read(latest, HilActuatorControls) if self._mavlink else latest
         acc = self._advance(self._cmd)
+        pos, vel = self.pos, self.vel
+        proximity = self._monitor.update(
+            ctx.time,
+            pos[0],
+            pos[1],
+            self._height - pos[2],
+            math.sqrt(vel[0] ** 2 + vel[1] ** 2 + vel[2] ** 2),
+        )
         c, s = math.cos(self.yaw), math.sin(self.yaw)
         # Level attitude: only yaw turns the body; specific force is acceleration minus gravity.
         fn, fe, fd = acc[0], acc[1], acc[2] - GRAVITY
@@ -101,6 +127,7 @@ class PointMassWorld:
             (math.cos(half), 0.0, 0.0, math.sin(half)),
             (c * fn + s * fe, -s * fn + c * fe, fd),
             (0.0, 0.0, self.yaw_rate),
+            proximity=proximity,
         )
 
     def _advance(self, cmd: HilActuatorControls | None) -> tuple[float, float, float]:
@@ -120,6 +147,16 @@ class PointMassWorld:
         vel[0] += a * (sp[0] - vel[0])
         vel[1] += a * (sp[1] - vel[1])
         vel[2] += a * (sp[2] - vel[2])
+        wind = self._wind
+        if wind is not None:
+            north, east, up = self.air = wind.step(self._time, -pos[2])
+            force = drag_force(self.body, (north, east, -up), (vel[0], vel[1], vel[2]))
+            k = dt / self.mass
+            vel[0] += force[0] * k
+            vel[1] += force[1] * k
+            if not on_ground:
+                vel[2] += force[2] * k
+        self._time += dt
         pos[0] += vel[0] * dt
         pos[1] += vel[1] * dt
         pos[2] += vel[2] * dt

@@ -17,7 +17,7 @@ its package (``multicosim.rover.strategies``, ``multicosim.px4.strategies``), wi
 conventions: ranges are ``(low, high)`` tuples, checked when the strategy is built (an
 inverted range, or one outside what the configuration accepts, raises ConfigurationError
 naming the argument), and every strategy shrinks towards the simple case: the lowest
-fidelity, the default world, zero noise.
+fidelity, the default world, zero noise, no obstacles, still air.
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ import hypothesis  # noqa: E402 - after the dependency check, which names the ex
 from hypothesis import strategies as st  # noqa: E402
 
 if TYPE_CHECKING:
-    from ..physics import WorldConfig
+    from ..physics import Obstacle, Wind, WorldConfig
     from .requirements import Evaluation
 
 __all__ = [
@@ -46,8 +46,10 @@ __all__ = [
     "check_range",
     "fidelities",
     "noise_levels",
+    "obstacles",
     "simple_first",
     "target_robustness",
+    "winds",
     "world_configs",
 ]
 
@@ -160,6 +162,105 @@ def _choices(
         values.remove(preferred)
         values.insert(0, preferred)
     return values
+
+
+def obstacles(
+    *,
+    count: tuple[int, int] = (0, 4),
+    north: Range = (-100.0, 100.0),
+    east: Range = (-100.0, 100.0),
+    size: Range = (1.0, 20.0),
+    height: Range = (2.0, 40.0),
+    kinds: Sequence[str] = ("box", "cylinder"),
+    home: tuple[float, float, float] | None = None,
+) -> st.SearchStrategy[tuple[Obstacle, ...]]:
+    """Obstacles for ``WorldConfig.obstacles``: ``count`` of them, none overlapping another
+    or standing near home (valid by construction), their centres within ``north``/``east``
+    (m), their footprints' sides (a box's length and width, a cylinder's diameter) within
+    ``size`` and their heights within ``height`` (m). Shrinks towards fewer, smaller obstacles.
+    """
+    from ..physics import DEFAULT_HOME, Box, Cylinder
+    from ..physics.obstacles import check_obstacles
+
+    fewest, most = check_range("count", count, low=0, high=50, integer=True)
+    n_lo, n_hi = check_range("north", north, low=-1e5, high=1e5)
+    e_lo, e_hi = check_range("east", east, low=-1e5, high=1e5)
+    s_lo, s_hi = check_range("size", size, low=0.0, high=1e3, low_open=True)
+    h_lo, h_hi = check_range("height", height, low=0.0, high=1e3, low_open=True)
+    shapes = _choices("kinds", kinds, ("box", "cylinder"), "box")
+    where = home if home is not None else DEFAULT_HOME
+
+    def one(draw: st.DrawFn) -> Obstacle:
+        kind = draw(st.sampled_from(shapes))
+        n, e = draw(st.floats(n_lo, n_hi)), draw(st.floats(e_lo, e_hi))
+        tall = draw(st.floats(h_lo, h_hi))
+        if kind == "cylinder":
+            side = draw(st.floats(s_lo, s_hi))
+            return Cylinder(radius=side / 2, height=tall, north=n, east=e)
+        return Box(
+            length=draw(st.floats(s_lo, s_hi)),
+            width=draw(st.floats(s_lo, s_hi)),
+            height=tall,
+            yaw=draw(st.floats(0.0, 180.0)),
+            north=n,
+            east=e,
+        )
+
+    @st.composite
+    def draw_obstacles(draw: st.DrawFn) -> tuple[Obstacle, ...]:
+        wanted = draw(st.integers(int(fewest), int(most)))
+        chosen: list[Obstacle] = []
+        for _ in range(wanted * 10):  # a candidate that overlaps is drawn again
+            if len(chosen) == wanted:
+                break
+            candidate = one(draw)
+            try:
+                check_obstacles([*chosen, candidate], where)
+            except ConfigurationError:
+                continue
+            chosen.append(candidate)
+        hypothesis.assume(len(chosen) >= fewest)  # the bounds were too crowded
+        return tuple(chosen)
+
+    return draw_obstacles()
+
+
+def winds(
+    *,
+    speed: Range = (0.0, 15.0),
+    turbulence: Range = (0.0, 15.4),
+    gusts: tuple[int, int] = (0, 2),
+    gust_speed: Range = (0.0, 10.0),
+    gust_start: Range = (0.0, 120.0),
+    gust_duration: Range = (0.5, 10.0),
+) -> st.SearchStrategy[Wind]:
+    """A :class:`~multicosim.physics.Wind`: steady ``speed`` (m/s) from any direction, Dryden
+    ``turbulence`` (W20, m/s; 15.4 is MIL-F-8785C's moderate) and ``gusts`` 1-cosine gusts.
+    Shrinks towards still air."""
+    from ..physics import Gust, Wind
+    from ..physics.wind import MAX_WIND
+
+    v_lo, v_hi = check_range("speed", speed, low=0.0, high=MAX_WIND)
+    t_lo, t_hi = check_range("turbulence", turbulence, low=0.0, high=MAX_WIND)
+    g_lo, g_hi = check_range("gusts", gusts, low=0, high=20, integer=True)
+    gv_lo, gv_hi = check_range("gust_speed", gust_speed, low=0.0, high=MAX_WIND)
+    gs_lo, gs_hi = check_range("gust_start", gust_start, low=0.0, high=1e6)
+    gd_lo, gd_hi = check_range("gust_duration", gust_duration, low=0.0, high=1e4, low_open=True)
+    direction = st.floats(0.0, 360.0, exclude_max=True)
+    gust = st.builds(
+        Gust,
+        start=st.floats(gs_lo, gs_hi),
+        duration=st.floats(gd_lo, gd_hi),
+        speed=st.floats(gv_lo, gv_hi),
+        direction=direction,
+    )
+    return st.builds(
+        Wind,
+        speed=simple_first(v_lo, st.floats(v_lo, v_hi)),
+        direction=direction,
+        gusts=st.lists(gust, min_size=int(g_lo), max_size=int(g_hi)).map(tuple),
+        turbulence=simple_first(t_lo, st.floats(t_lo, t_hi)),
+    )
 
 
 def noise_levels(high: float, *, low: float = 0.0) -> st.SearchStrategy[float]:

@@ -34,6 +34,7 @@ from ..core.clock import find_scheduler
 from ._cli import plot_command
 from ._convert import (
     LOCATION_CHANNEL,
+    OBSTACLES_CHANNEL,
     PATH_CHANNEL,
     PLAN_CHANNEL,
     POSE_CHANNEL,
@@ -59,6 +60,7 @@ from ._schemas import (
     GEOJSON,
     LOCATION_FIX,
     LOG,
+    OBSTACLES,
     PATH_POINT,
     PLAN,
     POSE_IN_FRAME,
@@ -78,6 +80,8 @@ __all__ = [
     "LOCATION_FIX",
     "LOG",
     "METADATA_NAME",
+    "OBSTACLES",
+    "OBSTACLES_CHANNEL",
     "PATH_CHANNEL",
     "PATH_POINT",
     "PLAN",

@@ -33,6 +33,7 @@ POSE_CHANNEL = "mcs/pose"
 PATH_CHANNEL = "mcs/path"  # mcs/path/<label>: local east/north/up points, for plots
 TRAJECTORY_CHANNEL = "mcs/trajectory"
 PLAN_CHANNEL = "mcs/plan"
+OBSTACLES_CHANNEL = "mcs/obstacles"
 ROBUSTNESS_CHANNEL = "mcs/robustness"
 
 

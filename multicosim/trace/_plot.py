@@ -16,7 +16,13 @@ from typing import TYPE_CHECKING
 from ..core.deps import require
 from ..core.errors import TraceError
 from ..core.files import replacing
-from ._convert import PATH_CHANNEL, PLAN_CHANNEL, ROBUSTNESS_CHANNEL, TRAJECTORY_CHANNEL
+from ._convert import (
+    OBSTACLES_CHANNEL,
+    PATH_CHANNEL,
+    PLAN_CHANNEL,
+    ROBUSTNESS_CHANNEL,
+    TRAJECTORY_CHANNEL,
+)
 from ._mcap import METADATA_NAME, TraceData, TraceMessage, read_trace
 
 if TYPE_CHECKING:
@@ -126,6 +132,18 @@ def figure(data: TraceData, title: str = "") -> Figure:
                     markersize=4,
                 )
                 line.set_gid("plan")
+        for m in data.topic(OBSTACLES_CHANNEL)[-1:]:
+            shapes = m.data.get("obstacles", []) if isinstance(m.data, dict) else []
+            for k, shape in enumerate(shapes):
+                outline = shape.get("footprint", [])
+                (patch,) = ax_path.fill(
+                    [p["east"] for p in outline],
+                    [p["north"] for p in outline],
+                    color="tab:brown",
+                    alpha=0.45,
+                    label="obstacles" if k == 0 else None,
+                )
+                patch.set_gid(f"obstacle/{shape.get('name', k)}")
         if first is not None:
             ax_path.plot([], [], "x", color="tab:red", label="at the first violation")
         ax_path.set_xlabel("east (m)")

@@ -70,8 +70,10 @@ def schema_for(tp: Any) -> Schema:
     """The JSON schema of message type ``tp``, rooted at the type itself (not a ``$ref``).
 
     An array-like Struct is described as the object of its fields (what a trace writes).
+    A float may be null: JSON has no NaN or infinity (an unset value, a clearance with no
+    obstacle around), and msgspec writes them as null.
     """
-    generated = msgspec.json.schema(_as_object_type(tp))
+    generated = _nullable_numbers(msgspec.json.schema(_as_object_type(tp)))
     defs = dict(generated.get("$defs", {}))
     ref = generated.get("$ref", "")
     name = ref.rsplit("/", 1)[-1] if ref else getattr(tp, "__name__", str(tp))
@@ -80,6 +82,16 @@ def schema_for(tp: Any) -> Schema:
     if defs:
         root["$defs"] = defs  # nested types keep resolving as "#/$defs/..."
     return Schema(_qualified(tp), {"$schema": DIALECT, **root})
+
+
+def _nullable_numbers(node: Any) -> Any:
+    if isinstance(node, dict):
+        if node.get("type") == "number":
+            node = {**node, "type": ["number", "null"]}
+        return {k: _nullable_numbers(v) for k, v in node.items()}
+    if isinstance(node, list):
+        return [_nullable_numbers(v) for v in node]
+    return node
 
 
 def is_array_like(tp: Any) -> bool:
@@ -137,6 +149,27 @@ PLAN = object_schema(
         }
     },
     description="The planned path, in the local east-north-up frame",
+)
+OBSTACLES = object_schema(
+    "multicosim.Obstacles",
+    {
+        "obstacles": {
+            "type": "array",
+            "items": {
+                "type": "object",
+                "properties": {
+                    "name": {"type": "string"},
+                    "height": {**_NUMBER, "description": "metres above the ground"},
+                    "footprint": {
+                        "type": "array",
+                        "items": {k: v for k, v in PATH_POINT.schema.items() if k != "$schema"},
+                        "description": "the outline on the ground (up 0)",
+                    },
+                },
+            },
+        }
+    },
+    description="The world's obstacles: footprints in the local east-north-up frame, heights",
 )
 ROBUSTNESS = object_schema(
     "multicosim.Robustness",
