@@ -31,6 +31,7 @@ from ..mavlink.mission import (
     Waypoint,
     WaypointReached,
 )
+from ..mavlink.params import read_params
 from ..physics.config import WorldConfig
 
 _LAZY = {
@@ -67,6 +68,7 @@ __all__ = [
     "WaypointReached",
     "WorldConfig",
     "default_world",
+    "read_params",
 ]
 
 if TYPE_CHECKING:

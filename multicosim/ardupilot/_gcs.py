@@ -9,7 +9,8 @@ this is what ArduPilot does differently from PX4:
 * cruise speed and acceptance radius are ``WPNAV_SPEED``/``WPNAV_RADIUS`` (centimetres) on
   the copter, ``WP_SPEED``/``WP_RADIUS`` on the rover;
 * the mission's item 0 is home (ArduPilot keeps its own there); the copter's starts with a
-  takeoff, then the waypoints, then a land or return-to-launch item;
+  takeoff, then the waypoints, then a land or return-to-launch item (a plan's items follow
+  home as they are);
 * arming happens in GUIDED once the estimator has a position (ArduPilot sets home then);
   MISSION_START switches to AUTO and, on the copter, lets it take off from the ground;
 * the rover has no landing: ``end="land"`` stops it at the last waypoint (where its mission
@@ -41,6 +42,7 @@ from ..mavlink.dialect import (
 )
 from ..mavlink.gcs import GroundStation, MissionFailed, Procedure
 from ..mavlink.mission import Configuration
+from ..mavlink.plan_link import plan_items
 
 __all__ = ["ArduPilotProcedure", "CopterProcedure", "RoverProcedure"]
 
@@ -66,6 +68,7 @@ class ArduPilotProcedure(Procedure):
 
     vehicle = "copter"
     guided = 4
+    plan_offset = 1
 
     def __init__(self) -> None:
         self._modes = _modes(self.vehicle)
@@ -93,8 +96,11 @@ class ArduPilotProcedure(Procedure):
     def mission_items(
         self, gs: GroundStation, config: Configuration, home_lat: float, home_lon: float
     ) -> list[Any]:
-        """Home (item 0), the vehicle's own first items, the waypoints, then the end."""
+        """Home (item 0), the vehicle's own first items, the waypoints, then the end (or
+        home and a plan's items as they are)."""
         items = [gs.item(0, CMD_WAYPOINT, params=_WAYPOINT_PARAMS, lat=home_lat, lon=home_lon)]
+        if config.plan is not None:
+            return items + plan_items(gs, config.plan.items, self.plan_offset, unset=0.0)
         items += self._start_items(gs, config, len(items))
         for wp in config.mission:
             items.append(

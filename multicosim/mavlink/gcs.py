@@ -34,6 +34,7 @@ from .dialect import (
     LANDED_ON_GROUND,
     MAV_AUTOPILOT_INVALID,
     MAV_TYPE_GCS,
+    MISSION_TYPE_MISSION,
     MODE_FLAG_ARMED,
     MSG_AUTOPILOT_VERSION,
     PREARM_BIT,
@@ -44,6 +45,7 @@ from .dialect import (
 )
 from .hil import MavlinkPacket, Truth
 from .mission import Collision, Configuration, FlightSample, MissionResult, WaypointReached
+from .plan_link import plan_items, upload_plan_areas, waypoint_indices
 
 __all__ = [
     "GcsSpec",
@@ -90,6 +92,9 @@ class Procedure:
     first_waypoint = 1
     """Mission sequence number of the configuration's first waypoint."""
 
+    plan_offset = 0
+    """Mission sequence number of a plan's first item (1 where the autopilot keeps home at 0)."""
+
     def mode_label(self, heartbeat: Any) -> str:
         """The flight mode's name from a HEARTBEAT (``AUTO.MISSION``, ``GUIDED``, ...)."""
         raise NotImplementedError
@@ -125,6 +130,9 @@ class Procedure:
 
     def start(self, gs: GroundStation, config: Configuration) -> None:
         """Arm and start the uploaded mission; MissionFailed if the autopilot refuses."""
+        # PX4 checks a mission after acknowledging it and refuses to start it until then
+        # ("No valid mission"); MISSION_CURRENT's total says when it has taken it.
+        gs.wait(lambda: gs.mission_total in (-1, gs.uploaded), 5.0)
         result = gs.command(CMD_ARM_DISARM, 1.0)
         if result != 0:
             raise MissionFailed("arming refused: " + gs.why(f"COMMAND_ACK result {result}"))
@@ -171,7 +179,9 @@ class PX4Procedure(Procedure):
     def mission_items(
         self, gs: GroundStation, config: Configuration, home_lat: float, home_lon: float
     ) -> list[Any]:
-        """Takeoff, waypoints, then land or RTL."""
+        """Takeoff, waypoints, then land or RTL (a plan's items as they are)."""
+        if config.plan is not None:
+            return plan_items(gs, config.plan.items, 0)
         wps = config.mission
         takeoff = config.takeoff_alt if config.takeoff_alt is not None else wps[0].alt
         # Where it stands: PX4 checks the first item's distance from home.
@@ -220,6 +230,8 @@ class GroundStation:
         self.local: Any = None
         self.current = 0
         self.mission_state = 0
+        self.mission_total = -1
+        self.uploaded = 0
         self.texts: list[str] = []
         self.critical: list[str] = []
         self.acks: dict[int, int] = {}
@@ -295,6 +307,7 @@ class GroundStation:
         elif kind == "MISSION_CURRENT":
             self.current = m.seq
             self.mission_state = getattr(m, "mission_state", 0)
+            self.mission_total = getattr(m, "total", -1)
         elif kind == "MISSION_ITEM_REACHED":
             if all(seq != m.seq for seq, _ in self.reached):
                 self.reached.append((m.seq, self.ctx.time))
@@ -385,12 +398,14 @@ class GroundStation:
                 return abs(self.params[name] - value) < 1e-4 * max(1.0, abs(value))
         return False
 
-    def upload(self, items: list[Any], timeout: float = 5.0) -> int:
+    def upload(
+        self, items: list[Any], timeout: float = 5.0, mission_type: int = MISSION_TYPE_MISSION
+    ) -> int:
         """Mission protocol upload (count, request_int*, item_int*, ack); the ack type."""
         for _ in range(3):
             self.mission_ack = None
             self.requested = []
-            self.send(self.mav.mission_count_encode(*self.target, len(items), 0))
+            self.send(self.mav.mission_count_encode(*self.target, len(items), mission_type))
             deadline = self.ctx.time + timeout
             while self.ctx.time < deadline:
                 if self.mission_ack is not None:
@@ -441,13 +456,12 @@ class GroundStation:
             completed = self._fly(config, start)
         except MissionFailed as exc:
             reason = str(exc)
-        n = len(config.mission)
-        first = self.procedure.first_waypoint
-        reached = [
-            WaypointReached(index=seq - first, time=t)
-            for seq, t in self.reached
-            if first <= seq < first + n
-        ]
+        index = waypoint_indices(config, self.procedure.first_waypoint, self.procedure.plan_offset)
+        first: dict[int, float] = {}
+        for seq, t in self.reached:
+            if seq in index:
+                first.setdefault(index[seq], t)
+        reached = [WaypointReached(index=i, time=t) for i, t in first.items()]
         return MissionResult(
             trajectory=self.samples,
             reached=reached,
@@ -487,8 +501,13 @@ class GroundStation:
         home = self.home
         home_lat = home.latitude * 1e-7 if home else config.mission[0].lat
         home_lon = home.longitude * 1e-7 if home else config.mission[0].lon
+        if config.plan is not None:
+            failure = upload_plan_areas(self, config.plan)
+            if failure:
+                raise MissionFailed(failure)
         items = procedure.mission_items(self, config, home_lat, home_lon)
         ack = self.upload(items)
+        self.uploaded = len(items)
         if ack != 0:
             raise MissionFailed(
                 self.why(f"mission upload failed (MISSION_ACK {ack})")
@@ -496,20 +515,20 @@ class GroundStation:
                 else "mission upload timed out"
             )
         procedure.start(self, config)
-        first_wp_seq = procedure.first_waypoint
-        last_wp_seq = first_wp_seq + len(config.mission) - 1
+        index = waypoint_indices(config, self.procedure.first_waypoint, self.procedure.plan_offset)
+        last = len(config.mission) - 1
         while True:
             if self.ctx.time >= deadline:
                 raise MissionFailed(
                     f"time limit of {config.time_limit:g} s reached"
-                    f" ({len([s for s, _ in self.reached if first_wp_seq <= s <= last_wp_seq])}"
+                    f" ({len({index[s] for s, _ in self.reached if s in index})}"
                     f" of {len(config.mission)} waypoints reached)"
                 )
             self.step()
             # Items are flown in order: the last waypoint reached means all were. (What
             # follows it, land or return, is a mode of its own: PX4 reports no item reached
             # for a return-to-launch.)
-            waypoints_done = any(seq == last_wp_seq for seq, _ in self.reached)
+            waypoints_done = any(index.get(seq) == last for seq, _ in self.reached)
             if procedure.finished(self, config, waypoints_done):
                 return True
 

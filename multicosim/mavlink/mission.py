@@ -8,6 +8,7 @@ passed as JSON to a component process) and a configuration (invalid values raise
 from __future__ import annotations
 
 import math
+from pathlib import Path
 from typing import Literal
 
 import msgspec
@@ -15,6 +16,15 @@ import msgspec
 from ..core.errors import ConfigurationError, check_number
 from ..core.geo import Home, LocalProjection
 from ..physics.config import WorldConfig, check_sensor_topics
+from .dialect import (
+    CMD_LAND,
+    CMD_RTL,
+    CMD_TAKEOFF,
+    CMD_WAYPOINT,
+    FRAME_GLOBAL_REL,
+    FRAME_MISSION,
+)
+from .plan import Plan, PlanItem, read_plan, write_plan
 
 __all__ = [
     "Collision",
@@ -105,6 +115,8 @@ class Configuration(msgspec.Struct, frozen=True):
     ``end``: after the last waypoint, ``"land"`` there, return and land (``"rtl"``) or hold
     position (``"hold"``). ``takeoff_alt`` defaults to the first waypoint's altitude.
     ``time_limit`` bounds the mission in simulated seconds: past it the result is incomplete.
+    ``plan``, when given (:meth:`from_plan`), is what the vehicle flies, item for item, with
+    its geofence and rally points; ``mission`` then lists its waypoints.
     """
 
     mission: list[Waypoint]
@@ -113,6 +125,7 @@ class Configuration(msgspec.Struct, frozen=True):
     acceptance_radius: float = 2.0
     takeoff_alt: float | None = None
     time_limit: float = 600.0
+    plan: Plan | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.mission, list | tuple) or not self.mission:
@@ -127,6 +140,78 @@ class Configuration(msgspec.Struct, frozen=True):
         if self.takeoff_alt is not None:
             check_number("takeoff_alt", self.takeoff_alt, 1.0, 1000.0)
         check_number("time_limit", self.time_limit, 0.0, 86_400.0, open_lo=True)
+        if self.plan is not None and not isinstance(self.plan, Plan):
+            raise ConfigurationError("plan", self.plan, "None or a plan read by from_plan")
+
+    @classmethod
+    def from_plan(
+        cls,
+        path: str | Path,
+        *,
+        acceptance_radius: float = 2.0,
+        time_limit: float = 600.0,
+    ) -> Configuration:
+        """The mission of a QGroundControl ``.plan`` file, with its geofence and rally points.
+
+        The vehicle flies the plan's items as they are; the configuration's waypoints are
+        its waypoint and loiter items, its cruise speed the plan's ``hoverSpeed`` and its end
+        the plan's last landing or return item (``"hold"`` without one).
+        """
+        plan = read_plan(path)
+        mission = []
+        for i in plan.waypoints():
+            it = plan.items[i]
+            alt = plan.relative_alt(it)
+            if alt < 0:
+                raise ConfigurationError(
+                    f"{path}: mission.items[{i}].params[6]", it.alt, "an altitude above home"
+                )
+            mission.append(Waypoint(lat=it.lat, lon=it.lon, alt=alt))
+        if not mission:
+            raise ConfigurationError(
+                f"{path}: mission.items", len(plan.items), "a mission with at least one waypoint"
+            )
+        return cls(
+            mission,
+            end=plan.end(),  # type: ignore[arg-type]
+            cruise_speed=plan.hover_speed,
+            acceptance_radius=acceptance_radius,
+            time_limit=time_limit,
+            plan=plan,
+        )
+
+    def to_plan(self, path: str | Path, home: Home | None = None) -> None:
+        """Write this mission as a QGroundControl ``.plan`` file.
+
+        A configuration read from a plan writes that plan; any other is written as the
+        ground station flies it (takeoff, waypoints, land or return) from ``home``.
+        """
+        if self.plan is not None:
+            write_plan(self.plan, path)
+            return
+        if not isinstance(home, Home):
+            raise ConfigurationError("home", home, "a Home: where the plan's vehicle starts")
+        write_plan(self._as_plan(home), path)
+
+    def _as_plan(self, home: Home) -> Plan:
+        rel, nan = FRAME_GLOBAL_REL, math.nan
+        wps = self.mission
+        takeoff = self.takeoff_alt if self.takeoff_alt is not None else wps[0].alt
+        items = [PlanItem(CMD_TAKEOFF, rel, (0.0, 0.0, 0.0, nan, home.lat, home.lon, takeoff))]
+        acc = self.acceptance_radius
+        items += [
+            PlanItem(CMD_WAYPOINT, rel, (0.0, acc, 0.0, nan, w.lat, w.lon, w.alt)) for w in wps
+        ]
+        last = wps[-1]
+        if self.end == "land":
+            items.append(PlanItem(CMD_LAND, rel, (0.0, 0.0, 0.0, nan, last.lat, last.lon, 0.0)))
+        elif self.end == "rtl":
+            items.append(PlanItem(CMD_RTL, FRAME_MISSION, (0.0,) * 7))
+        return Plan(
+            items=items,
+            home=(home.lat, home.lon, home.alt),
+            hover_speed=self.cruise_speed,
+        )
 
     def check_geofence(self, home: Home, fence: Geofence) -> None:
         """Raise ConfigurationError naming the first waypoint outside ``fence`` around ``home``."""

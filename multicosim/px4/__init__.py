@@ -38,6 +38,7 @@ from ..mavlink.mission import (
     Waypoint,
     WaypointReached,
 )
+from ..mavlink.params import read_params
 
 Gazebo = MuJoCo  # the paper's name for the world configuration
 
@@ -80,6 +81,7 @@ __all__ = [
     "Waypoint",
     "WaypointReached",
     "WorldComponent",
+    "read_params",
     "sitl_level",
 ]
 

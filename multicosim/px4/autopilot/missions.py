@@ -2,8 +2,9 @@
 
 Uploads (MISSION_COUNT, then MISSION_REQUEST_INT per item with retransmission, MISSION_ACK)
 are checked as PX4 checks them: navigation items in a global frame (a return-to-launch
-item also in the mission frame, as MAVSDK sends it), DO_CHANGE_SPEED and DO_JUMP (to an
-existing item), coordinates in range and inside the geofence parameters. Geofence
+item also in the mission frame, as MAVSDK sends it), DO_JUMP to an existing item, any
+other command MAVLink defines (the navigator notes those it has nothing to do for),
+coordinates in range and inside the geofence parameters. Geofence
 (polygon vertices, circles) and rally point lists are stored; RTL returns to the closest
 rally point. A legacy MISSION_REQUEST is answered with the float MISSION_ITEM, as PX4 does.
 """
@@ -15,7 +16,6 @@ from typing import Any
 
 from ...core.geo import LocalProjection
 from ...mavlink.dialect import (
-    CMD_DO_CHANGE_SPEED,
     CMD_DO_JUMP,
     CMD_FENCE_CIRCLE_EXCLUSION,
     CMD_FENCE_CIRCLE_INCLUSION,
@@ -45,6 +45,7 @@ from ...mavlink.dialect import (
     SEV_WARNING,
     Mode,
 )
+from ...mavlink.plan import command_name
 from .state import Item, State
 
 __all__ = ["Missions"]
@@ -190,7 +191,7 @@ class Missions(State):
         proj = LocalProjection(ref[3], ref[4]) if ref is not None else None
         for it in items:
             cmd = it.command
-            if cmd not in NAV_COMMANDS and cmd not in (CMD_DO_CHANGE_SPEED, CMD_DO_JUMP):
+            if not command_name(cmd):
                 return MISSION_UNSUPPORTED, f"item {it.seq}: command {cmd} unsupported"
             if cmd == CMD_DO_JUMP and not 0 <= it.param1 < len(items):
                 return MISSION_ERROR, f"item {it.seq}: DO_JUMP to a missing item"

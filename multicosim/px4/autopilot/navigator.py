@@ -1,6 +1,7 @@
 """The navigator: what the vehicle should do now, per flight mode, down to motor outputs.
 
-Takeoff, mission items (acceptance radii, hold times, DO_CHANGE_SPEED, DO_JUMP), land,
+Takeoff, mission items (acceptance radii, hold and loiter times, DO_CHANGE_SPEED, DO_JUMP;
+commands with nothing to act on here, such as camera and gimbal ones, are noted), land,
 return to launch (to the closest of home and the rally points), hold and reposition,
 follow target, offboard setpoints (position, velocity, attitude) and the manual modes
 (POSCTL holds position when the sticks are centred, ALTCTL and the others only height).
@@ -15,6 +16,7 @@ from ...mavlink.dialect import (
     CMD_DO_CHANGE_SPEED,
     CMD_DO_JUMP,
     CMD_LAND,
+    CMD_LOITER_TIME,
     CMD_LOITER_UNLIM,
     CMD_RTL,
     CMD_TAKEOFF,
@@ -24,9 +26,11 @@ from ...mavlink.dialect import (
     MISSION_STATE_COMPLETE,
     MODE_FLAG_ARMED,
     NAV_COMMANDS,
+    SEV_NOTICE,
     Mode,
 )
 from ...mavlink.hil import ACTUATOR_FLAG_VELOCITY, HilActuatorControls
+from ...mavlink.plan import command_name
 from .control import position_control
 from .state import Item, State, Vec3
 
@@ -84,6 +88,12 @@ class Navigator(State):
                     self._dirty.add("MISSION_CURRENT")
                 else:
                     self.seq += 1
+            elif item.command not in NAV_COMMANDS:
+                # Camera, gimbal, region of interest: nothing in our world to act on. Said,
+                # so that the flight's messages record it, and passed, as PX4 passes them.
+                name = command_name(item.command).removeprefix("MAV_CMD_")
+                self._text(f"Item {item.seq}: {name} has no effect", SEV_NOTICE)
+                self._item_reached()
             else:
                 return
 
@@ -276,7 +286,7 @@ class Navigator(State):
         acc = item.param2 if cmd == CMD_WAYPOINT and item.param2 > 0 else p["NAV_ACC_RAD"]
         hdist = math.hypot(pos[0] - t[0], pos[1] - t[1])
         if cmd != CMD_LOITER_UNLIM and hdist < acc and abs(pos[2] - t[2]) < p["NAV_MC_ALT_RAD"]:
-            hold_time = item.param1 if cmd == CMD_WAYPOINT else 0.0
+            hold_time = item.param1 if cmd in (CMD_WAYPOINT, CMD_LOITER_TIME) else 0.0
             if self._reached_at is None:
                 self._reached_at = self._now
             if self._now - self._reached_at >= hold_time:
