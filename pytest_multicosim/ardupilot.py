@@ -32,6 +32,7 @@ from .simulations import tracked
 
 if TYPE_CHECKING:
     from multicosim.ardupilot import ArduPilotSimulation, Copter, Rover
+    from multicosim.physics import WorldConfig
 
 __all__ = [
     "ardupilot_copter_simulation",
@@ -69,6 +70,12 @@ def ardupilot_params() -> dict[str, float]:
     return {}
 
 
+@pytest.fixture
+def ardupilot_world() -> WorldConfig | None:
+    """The world configuration of the ArduPilot simulators (None: the fidelity's default)."""
+    return None
+
+
 def _simulator(
     request: pytest.FixtureRequest,
     vehicle: str,
@@ -77,6 +84,7 @@ def _simulator(
     seed: int,
     simulations: Any,
     params: dict[str, float],
+    world: WorldConfig | None = None,
 ) -> Any:
     from multicosim.ardupilot import BACKENDS, Copter, Rover
 
@@ -92,6 +100,7 @@ def _simulator(
         request.getfixturevalue("mcs_runtime_image")
     cls = Copter if vehicle == "copter" else Rover
     simulator = cls(
+        world,
         fidelity=fidelity,  # type: ignore[arg-type]  # validated by the simulator
         firmware_dir=directory,
         backend=backend,
@@ -109,10 +118,18 @@ def ardupilot_copter_simulator(
     mcs_seed: int,
     mcs_simulations: Any,
     ardupilot_params: dict[str, float],
+    ardupilot_world: WorldConfig | None,
 ) -> Copter:
     """An unstarted ArduCopter simulator; whatever it starts is stopped at teardown."""
     simulator: Copter = _simulator(
-        request, "copter", mcs_fidelity, mcs_backend, mcs_seed, mcs_simulations, ardupilot_params
+        request,
+        "copter",
+        mcs_fidelity,
+        mcs_backend,
+        mcs_seed,
+        mcs_simulations,
+        ardupilot_params,
+        ardupilot_world,
     )
     return simulator
 
@@ -131,10 +148,18 @@ def ardupilot_rover_simulator(
     mcs_seed: int,
     mcs_simulations: Any,
     ardupilot_params: dict[str, float],
+    ardupilot_world: WorldConfig | None,
 ) -> Rover:
     """An unstarted ArduRover simulator; whatever it starts is stopped at teardown."""
     simulator: Rover = _simulator(
-        request, "rover", mcs_fidelity, mcs_backend, mcs_seed, mcs_simulations, ardupilot_params
+        request,
+        "rover",
+        mcs_fidelity,
+        mcs_backend,
+        mcs_seed,
+        mcs_simulations,
+        ardupilot_params,
+        ardupilot_world,
     )
     return simulator
 

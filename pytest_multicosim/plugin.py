@@ -67,6 +67,16 @@ def pytest_unconfigure(config: pytest.Config) -> None:
         atexit.unregister(registry.stop_all)
 
 
+def pytest_collect_file(file_path: Path, parent: pytest.Collector) -> pytest.Collector | None:
+    # Test cases as files (test_*.mcs.yaml): a name no other plugin collects. The module
+    # (and the world's types it reads) loads only where there is one.
+    if ".mcs." not in file_path.name:
+        return None
+    from .cases import CaseFile, is_case
+
+    return CaseFile.from_parent(parent, path=file_path) if is_case(file_path) else None
+
+
 def pytest_sessionstart(session: pytest.Session) -> None:
     activity = session.config.stash[activity_key]
     if activity.explicit:

@@ -40,6 +40,7 @@ medium, confirm on real PX4).
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 from collections.abc import Mapping
 from typing import Any
@@ -51,6 +52,8 @@ import multicosim.attacks as attacks
 import multicosim.px4 as px4
 import multicosim.rover as rover
 from multicosim.core.geo import LocalProjection
+from multicosim.physics import Cylinder, Wind
+from multicosim.px4.scenario import default_world
 from multicosim.search.falsify import Choice, FalsificationResult, Integer, Level, Real, falsify
 from multicosim.search.requirements import Requirement
 
@@ -300,6 +303,70 @@ def px4_altitude(
     return {"time": [s.time for s in result.trajectory], "height": height}
 
 
+# A mission with one corner: north 60 m, then east 40 m, 10 m up.
+CORNER_PATH = ((0.0, 0.0), (60.0, 0.0), (60.0, 40.0))
+CORNER_MISSION = px4.Configuration(
+    [_waypoint(n, e, 10.0) for n, e in CORNER_PATH[1:]], end="hold", time_limit=90.0
+)
+CLEARANCE = 1.5  # m: the community benchmark's soft limit
+OFF_PATH = 2.0  # m: no obstacle's surface comes nearer the planned path than this
+
+
+def _nearest_on_path(north: float, east: float) -> tuple[float, float]:
+    """The point of the planned path (a polyline) nearest ``north, east``."""
+    best = (math.inf, 0.0, 0.0)
+    for (n0, e0), (n1, e1) in itertools.pairwise(CORNER_PATH):
+        dn, de = n1 - n0, e1 - e0
+        t = min(1.0, max(0.0, ((north - n0) * dn + (east - e0) * de) / (dn * dn + de * de)))
+        qn, qe = n0 + t * dn, e0 + t * de
+        best = min(best, (math.hypot(north - qn, east - qe), qn, qe))
+    return best[1], best[2]
+
+
+def place_off_path(north: float, east: float, radius: float) -> tuple[float, float]:
+    """Where an obstacle of ``radius`` meant for ``north, east`` stands: pushed straight away
+    from the planned path until its surface is :data:`OFF_PATH` from it (twice: inside the
+    corner, moving away from one leg can bring it near the other)."""
+    for _ in range(2):
+        qn, qe = _nearest_on_path(north, east)
+        d = math.hypot(north - qn, east - qe)
+        if d >= OFF_PATH + radius - 1e-9:
+            continue
+        # On the path itself: to its left (west of the first leg, north of the second).
+        un, ue = ((north - qn) / d, (east - qe) / d) if d > 1e-9 else (0.0, -1.0)
+        north, east = qn + un * (OFF_PATH + radius), qe + ue * (OFF_PATH + radius)
+    return north, east
+
+
+def px4_clearance(
+    sample: Mapping[str, Any], fidelity: str, seed: int, firmware: px4.SITL | None = None
+) -> dict[str, Any]:
+    """The corner mission past the sample's tower, in the sample's wind: time and the true
+    3-D clearance from the vehicle to the tower (``firmware`` as for :func:`px4_geofence`)."""
+    north, east = place_off_path(sample["north"], sample["east"], sample["radius"])
+    tower = Cylinder(north=north, east=east, radius=sample["radius"], height=30.0, name="tower")
+    wind = Wind(
+        speed=sample["wind"], direction=sample["direction"], turbulence=sample["turbulence"]
+    )
+    world = dataclasses.replace(default_world(fidelity), obstacles=(tower,), wind=wind)  # type: ignore[arg-type]
+    simulator = px4.PX4(world, fidelity=fidelity, seed=seed, firmware=firmware)  # type: ignore[arg-type]
+    with simulator.start() as simulation:
+        result = simulation.firmware.send(CORNER_MISSION)
+    return {
+        "time": [s.time for s in result.trajectory],
+        "clearance": [s.clearance for s in result.trajectory],
+    }
+
+
+CLEARANCE_SPACE: dict[str, Any] = {
+    "north": (-10.0, 75.0),  # m: where the tower is meant to stand (moved off the path)
+    "east": (-15.0, 50.0),
+    "radius": (0.5, 3.0),  # m
+    "wind": (0.0, 12.0),  # m/s, steady
+    "direction": (0.0, 360.0),  # degrees clockwise from north, where it blows from
+    "turbulence": (0.0, 15.0),  # m/s, Dryden W20 (7.7: light, 15.4: moderate)
+}
+
 SPOOF_SPACE: dict[str, Any] = {
     "east": (-20.0, 20.0),  # spoof offset, m
     "north": (-20.0, 20.0),
@@ -348,6 +415,15 @@ PROBLEMS: dict[str, Problem] = {
             px4_altitude,
             Requirement(f"always (height >= {FLOOR:g})", name="altitude floor"),
             BARO_SPACE,
+            200,
+            flies_px4=True,
+        ),
+        Problem(
+            "px4-clearance",
+            f"PX4 mission past a tower (never on its path) in wind keeps {CLEARANCE:g} m clear",
+            px4_clearance,
+            Requirement(f"always (clearance >= {CLEARANCE:g})", name="clearance"),
+            CLEARANCE_SPACE,
             200,
             flies_px4=True,
         ),

@@ -58,6 +58,11 @@ class WorldSpec(msgspec.Struct, frozen=True, kw_only=True):
         return self.point_mass_period if self.model == "point_mass" else self.world.period
 
 
+REJECTION_TIME = 1.8 / 0.4
+"""s: how fast PX4's velocity loop (MPC_XY_VEL_P_ACC over MPC_XY_VEL_I_ACC) takes up a steady
+disturbance; the point mass rejects its wind's drag so."""
+
+
 class PointMassWorld:
     """Velocity-tracking point mass (north, east, down) with yaw; ground at down = 0.
 
@@ -89,6 +94,8 @@ class PointMassWorld:
         self._wind: WindField | None = None
         self._time = 0.0
         self.air = (0.0, 0.0, 0.0)
+        # What the (modelled) velocity controller has learnt to push against the wind, m/s².
+        self._against = [0.0, 0.0]
         # The body's centre stands this high when the point mass is on the ground.
         self._height = airframe.ground_offset
 
@@ -152,8 +159,17 @@ class PointMassWorld:
             north, east, up = self.air = wind.step(self._time, -pos[2])
             force = drag_force(self.body, (north, east, -up), (vel[0], vel[1], vel[2]))
             k = dt / self.mass
-            vel[0] += force[0] * k
-            vel[1] += force[1] * k
+            # The lag stands for a controller with integral action (PX4's velocity loop):
+            # it learns the horizontal drag with its time constant, P over I gain (1.8 / 0.4
+            # s), and pushes back, so a steady wind leaves no lasting velocity error.
+            against, learn = self._against, dt / REJECTION_TIME
+            if on_ground:
+                against[0] = against[1] = 0.0
+            else:
+                against[0] += (-force[0] / self.mass - against[0]) * learn
+                against[1] += (-force[1] / self.mass - against[1]) * learn
+            vel[0] += force[0] * k + against[0] * dt
+            vel[1] += force[1] * k + against[1] * dt
             if not on_ground:
                 vel[2] += force[2] * k
         self._time += dt

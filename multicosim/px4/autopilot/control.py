@@ -48,6 +48,10 @@ class Vehicle:
         ]
 
 
+VEL_I_XY = 0.4
+"""1/s²: the horizontal velocity loop's integral gain (PX4's MPC_XY_VEL_I_ACC default)."""
+
+
 def _clamp(v: float, lo: float, hi: float) -> float:
     return lo if v < lo else hi if v > hi else v
 
@@ -60,18 +64,35 @@ def position_control(
     up: float,
     down: float,
     vz_override: float | None = None,
+    origin: tuple[float, float] | None = None,
     kp_xy: float = 0.95,
     kp_z: float = 1.5,
 ) -> tuple[float, float, float]:
     """Velocity setpoint (NED) towards position ``sp``, limited like PX4's MPC_* speeds.
 
-    Saturating the horizontal error as one vector keeps the path a straight line.
+    Saturating the horizontal error as one vector keeps the path a straight line in still
+    air. With ``origin`` (north, east: where the leg began) the vehicle flies the line from
+    it to ``sp``, as PX4's auto modes do: the error across the line is corrected first and
+    the rest of the speed goes along it, so a crosswind does not bend the path.
     """
-    vx = kp_xy * (sp[0] - pos[0])
-    vy = kp_xy * (sp[1] - pos[1])
-    h = math.hypot(vx, vy)
-    if h > cruise:
-        vx, vy = vx * cruise / h, vy * cruise / h
+    ex, ey = sp[0] - pos[0], sp[1] - pos[1]
+    lx, ly = (sp[0] - origin[0], sp[1] - origin[1]) if origin is not None else (0.0, 0.0)
+    length = math.hypot(lx, ly)
+    if length > 1.0:
+        ux, uy = lx / length, ly / length
+        along = ex * ux + ey * uy  # still to go along the line
+        cx, cy = kp_xy * (ex - along * ux), kp_xy * (ey - along * uy)  # back onto the line
+        across = math.hypot(cx, cy)
+        if across > cruise:
+            cx, cy, across = cx * cruise / across, cy * cruise / across, cruise
+        room = math.sqrt(cruise * cruise - across * across)
+        va = _clamp(kp_xy * along, -room, room)
+        vx, vy = cx + va * ux, cy + va * uy
+    else:
+        vx, vy = kp_xy * ex, kp_xy * ey
+        h = math.hypot(vx, vy)
+        if h > cruise:
+            vx, vy = vx * cruise / h, vy * cruise / h
     vz = kp_z * (sp[2] - pos[2]) if vz_override is None else vz_override
     return vx, vy, _clamp(vz, -up, down)
 
@@ -106,11 +127,14 @@ class MultirotorController:
         # Velocity loop -> acceleration setpoint (NED).
         vi = self.vel_int
         ex, ey, ez = vel_sp[0] - vel[0], vel_sp[1] - vel[1], vel_sp[2] - vel[2]
-        vi[0] = _clamp(vi[0] + ex * dt, -2.0, 2.0)
-        vi[1] = _clamp(vi[1] + ey * dt, -2.0, 2.0)
+        # The horizontal integrator may learn as much acceleration as the tilt limit gives
+        # (PX4 bounds it by anti-windup, not by a small constant): a steady wind needs it.
+        lim = GRAVITY * math.tan(self.max_tilt) / VEL_I_XY
+        vi[0] = _clamp(vi[0] + ex * dt, -lim, lim)
+        vi[1] = _clamp(vi[1] + ey * dt, -lim, lim)
         vi[2] = _clamp(vi[2] + ez * dt, -3.0, 3.0)
-        ax = 1.8 * ex + 0.4 * vi[0]
-        ay = 1.8 * ey + 0.4 * vi[1]
+        ax = 1.8 * ex + VEL_I_XY * vi[0]
+        ay = 1.8 * ey + VEL_I_XY * vi[1]
         az = 4.0 * ez + 2.0 * vi[2]
         # Thrust vector: F = m (a - g); body z must point along -F.
         fx, fy, fz = v.mass * ax, v.mass * ay, v.mass * (az - GRAVITY)

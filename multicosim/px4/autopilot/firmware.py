@@ -15,6 +15,7 @@ both of its peers:
 from __future__ import annotations
 
 import logging
+import math
 from typing import Any, Literal
 
 import msgspec
@@ -129,6 +130,8 @@ class Autopilot(Commander, Navigator, Failures, Commands, ParamServer, Missions,
         self._jumps = {}
         self._phase = ""
         self._hold = (0.0, 0.0, 0.0)
+        self._leg_origin = (0.0, 0.0)  # where the current mission leg began (north, east)
+        self._leg_speed = math.inf  # the fastest the leg may be flown here (a turn ahead)
         self._target = None
         self._cruise = None
         self._yaw_sp = 0.0

@@ -254,6 +254,10 @@ class Navigator(State):
             self._target = self._item_target(item)
             if cmd == CMD_TAKEOFF:
                 self._target = (pos[0], pos[1], self._target[2])
+            # The leg starts where the last one ended (the item reached, or where the vehicle
+            # was told to hold): PX4 flies the line between the two.
+            self._leg_origin = (self._hold[0], self._hold[1])
+            self._leg_speed = math.inf
         t = self._target
         if self.landed and self._phase == "":
             # On the ground with a mission to fly: take off first (PX4 does the same when
@@ -295,7 +299,40 @@ class Navigator(State):
                 return t, None, False, None
         if hdist > 2.0:
             self._yaw_sp = math.atan2(t[1] - pos[1], t[0] - pos[0])
+        self._leg_speed = self._approach_speed(t, hdist, acc, item)
         return t, None, False, None
+
+    def _approach_speed(self, t: Vec3, dist: float, acc: float, item: Item) -> float:
+        """The fastest the vehicle may go ``dist`` m before waypoint ``t`` so as to make the
+        turn to the next one within ``acc`` m (PX4's FlightTaskAuto: the speed a turn by
+        ``alpha`` allows, sqrt(a r tan(alpha / 2)), and braking towards it at MPC_ACC_HOR).
+
+        A waypoint the vehicle stops at (a hold time, a loiter, the last one) is reached at 0.
+        """
+        accel = self.params["MPC_ACC_HOR"]
+        turn = 0.0
+        nxt = self._next_position(self.seq + 1)
+        stops = item.command != CMD_WAYPOINT or item.param1 > 0
+        if nxt is not None and not stops:
+            o = self._leg_origin
+            back = (o[0] - t[0], o[1] - t[1])
+            ahead = (nxt[0] - t[0], nxt[1] - t[1])
+            nb, na = math.hypot(*back), math.hypot(*ahead)
+            if nb > 1e-3 and na > 1e-3:
+                cos = (back[0] * ahead[0] + back[1] * ahead[1]) / (nb * na)
+                alpha = math.acos(max(-1.0, min(1.0, cos)))  # pi: straight on
+                turn = math.sqrt(accel * acc * math.tan(min(alpha / 2, 1.5)))
+        return math.sqrt(turn * turn + 2.0 * accel * max(0.0, dist - acc))
+
+    def _next_position(self, seq: int) -> tuple[float, float] | None:
+        """Where the first item from ``seq`` on that goes somewhere lies (north, east)."""
+        for item in self.mission[seq:]:
+            if item.command in (CMD_WAYPOINT, CMD_LOITER_TIME, CMD_LOITER_UNLIM, CMD_LAND):
+                n, e, _ = self._item_target(item)
+                return n, e
+            if item.command in (CMD_RTL, CMD_DO_JUMP):
+                return None
+        return None
 
     def reposition(self, n: float, e: float, d: float | None, speed: float | None) -> None:
         """Fly to (n, e, d) and hold there (DO_REPOSITION: PX4 v1.15 does this in Hold)."""
@@ -412,6 +449,9 @@ class Navigator(State):
             )
             return HilActuatorControls(t_us, [*motors, *_ZEROS12], MODE_FLAG_ARMED, 1)
         cruise = self._cruise or p["MPC_XY_CRUISE"]
+        leg = self.mode == Mode.MISSION and sp == self._target
+        if leg:
+            cruise = min(cruise, self._leg_speed)
         up = (
             p["MPC_TKO_SPEED"] if self.landed or self.mode == Mode.TAKEOFF else p["MPC_Z_V_AUTO_UP"]
         )
@@ -422,6 +462,7 @@ class Navigator(State):
             up=up,
             down=p["MPC_Z_V_AUTO_DN"],
             vz_override=vz_override,
+            origin=self._leg_origin if leg else None,
         )
         if vxy is not None:
             vel_sp = (vxy[0], vxy[1], vel_sp[2])

@@ -1,0 +1,204 @@
+"""Test cases as files: ``test_*.mcs.yaml`` (or ``.mcs.toml``) collected and run as tests.
+
+A UAV test as the PX4 community writes one is data, not code: a QGroundControl mission, a
+parameter file, obstacles, a wind, the autopilot and the fidelity levels, and what must hold.
+One file is one test::
+
+    # test_corridor.mcs.yaml
+    description: the survey leg passes between two masts in a crosswind
+    autopilot: px4                 # px4 (built-in, and real PX4 where named) or ardupilot
+    fidelity: [low, medium]        # default: every level the autopilot flies
+    plan: corridor.plan            # QGroundControl .plan, relative to this file
+    params: corridor.params        # optional: PX4 "param set" lines, QGC .params, or name,value CSV
+    obstacles:
+      - {type: box, north: 40, east: 6, length: 4, width: 4, height: 30, yaw: 20}
+      - {type: cylinder, north: 70, east: -5, radius: 1.5, height: 25}
+    wind: {speed: 4, direction: 270, turbulence: 1.0}
+    requirements:                  # signal temporal logic over the trajectory's signals
+      - always (clearance >= 1.5)
+      - always (true_alt <= 40)
+
+A file is collected as a module whose one test (named after the file) is parametrized over
+the fidelity levels like any ``@pytest.mark.fidelity`` test, runs on the vehicle fixtures
+(``px4_simulator``, ``ardupilot_copter_simulator``: real PX4 where ``--mcs-px4-binary`` names
+one, artifacts, replay command) and fails when the vehicle collides, when the mission does
+not complete, or when a requirement is violated, in that order. A malformed file is a
+collection error naming the file, the field and what is allowed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+from pathlib import Path
+from types import ModuleType
+from typing import Any, Literal
+
+import msgspec
+import pytest
+
+from multicosim.core.deps import require
+from multicosim.core.errors import ConfigurationError
+from multicosim.core.fidelity import FIDELITIES
+from multicosim.physics.obstacles import Box, Cylinder
+from multicosim.physics.wind import Wind
+
+__all__ = ["SUFFIXES", "Case", "CaseError", "CaseFile", "is_case", "load_case"]
+
+SUFFIXES = (".mcs.yaml", ".mcs.yml", ".mcs.toml")
+"""The names of files collected as cases (``test_`` first, as pytest's own test files)."""
+
+Autopilot = Literal["px4", "ardupilot"]
+
+
+class Case(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
+    """One test as a file (see the module's docstring for the format)."""
+
+    plan: str
+    autopilot: Autopilot = "px4"
+    fidelity: tuple[str, ...] = ()
+    params: str | None = None
+    obstacles: tuple[Box | Cylinder, ...] = ()
+    wind: Wind | None = None
+    requirements: tuple[str, ...] = ()
+    description: str = ""
+
+
+class CaseError(ConfigurationError):
+    """A case file that cannot run: ``field`` is the file and where in it, ``allowed`` why."""
+
+    def __init__(self, path: Path, where: str, reason: str) -> None:
+        ConfigurationError.__init__(self, f"{path.name}: {where}", None, reason)
+        self.args = (f"{path.name}: {where}: {reason}",)
+
+    def __str__(self) -> str:
+        return str(self.args[0])
+
+
+def _where(message: str) -> tuple[str, str]:
+    """msgspec's ``reason - at `$.a[0].b``` as (``a[0].b``, reason)."""
+    reason, _, at = message.rpartition(" - at `$")
+    if not reason:
+        return "(top level)", message
+    return at.rstrip("`").lstrip(".") or "(top level)", reason
+
+
+def load_case(path: Path) -> Case:
+    """Read and check the case in ``path``; ConfigurationError names the field that is wrong."""
+    if path.suffix == ".toml":
+        decode = msgspec.toml.decode
+    else:
+        require("yaml", "cases")  # msgspec reads YAML through PyYAML
+        decode = msgspec.yaml.decode
+    try:
+        case = decode(path.read_bytes(), type=Case)
+    except msgspec.ValidationError as exc:
+        # msgspec says where (`$.obstacles[0].height`) and what it expected.
+        raise CaseError(path, *_where(str(exc))) from None
+    except msgspec.DecodeError as exc:
+        raise CaseError(path, "(file)", f"not valid {path.suffix[1:].upper()}: {exc}") from None
+    for level in case.fidelity:
+        if level not in FIDELITIES:
+            allowed = ", ".join(FIDELITIES)
+            raise CaseError(path, "fidelity", f"{level!r} is no level; allowed: {allowed}")
+    if case.autopilot == "ardupilot" and "low" in case.fidelity:
+        raise CaseError(path, "fidelity", "ardupilot flies MuJoCo: medium or high, not 'low'")
+    for field in ("plan", "params"):
+        name = getattr(case, field)
+        if name is not None and not (path.parent / name).is_file():
+            raise CaseError(path, field, f"{name!r} is no file (names are relative to the case)")
+    return case
+
+
+def is_case(path: Path) -> bool:
+    """Whether pytest should collect ``path`` as a case."""
+    return path.name.startswith("test_") and path.name.endswith(SUFFIXES)
+
+
+def _fly(case: Case, path: Path, simulation: Any) -> None:
+    """Fly the case's plan on a started simulation and judge the flight."""
+    from multicosim.mavlink.mission import Configuration
+    from multicosim.search.requirements import Requirement
+
+    config = Configuration.from_plan(path.parent / case.plan)
+    result = simulation.firmware.send(config)
+    hit = result.collision
+    if hit is not None:
+        obstacle = case.obstacles[hit.obstacle]
+        name = f"{obstacle.name!r}" if obstacle.name else f"obstacles[{hit.obstacle}]"
+        pytest.fail(
+            f"the vehicle hit {name} ({type(obstacle).__name__.lower()}) at t={hit.time:.2f} s, "
+            f"at {hit.speed:.1f} m/s",
+            pytrace=False,
+        )
+    assert result.completed, f"the mission did not complete: {result.reason}"
+    for formula in case.requirements:
+        Requirement(formula).check(result.trajectory)
+
+
+def _module(path: Path, case: Case) -> ModuleType:
+    """A module of one test, named after the file, and the fixtures that set its world up."""
+    module = ModuleType(path.name)
+    module.__file__ = str(path)
+    name = "test_" + path.name.removeprefix("test_").split(".", 1)[0].replace("-", "_")
+    params = functools.partial(_params, path.parent / case.params) if case.params else dict
+
+    if case.autopilot == "px4":
+
+        def test(px4_simulation: Any) -> None:
+            _fly(case, path, px4_simulation)
+
+        @pytest.fixture
+        def px4_world(mcs_fidelity: str) -> Any:
+            from multicosim.px4.scenario import default_world
+
+            world = default_world(mcs_fidelity)  # type: ignore[arg-type]  # checked by the plugin
+            return dataclasses.replace(world, obstacles=case.obstacles, wind=case.wind)
+
+        @pytest.fixture
+        def px4_params() -> dict[str, float]:
+            return params()
+
+        module.px4_world = px4_world  # type: ignore[attr-defined]
+        module.px4_params = px4_params  # type: ignore[attr-defined]
+    else:
+
+        def test(ardupilot_copter_simulation: Any) -> None:  # type: ignore[misc]
+            _fly(case, path, ardupilot_copter_simulation)
+
+        @pytest.fixture
+        def ardupilot_world(mcs_fidelity: str) -> Any:
+            from multicosim.ardupilot import default_world
+
+            world = default_world("copter", mcs_fidelity)  # type: ignore[arg-type]
+            return dataclasses.replace(world, obstacles=case.obstacles, wind=case.wind)
+
+        @pytest.fixture
+        def ardupilot_params() -> dict[str, float]:
+            return params()
+
+        module.ardupilot_world = ardupilot_world  # type: ignore[attr-defined]
+        module.ardupilot_params = ardupilot_params  # type: ignore[attr-defined]
+
+    test.__name__ = test.__qualname__ = name
+    test.__doc__ = case.description or f"The case in {path.name}."
+    levels = case.fidelity or (FIDELITIES if case.autopilot == "px4" else ("medium", "high"))
+    setattr(module, name, pytest.mark.fidelity(*levels)(test))
+    return module
+
+
+def _params(path: Path) -> dict[str, float]:
+    from multicosim.mavlink.params import read_params
+
+    return read_params(path)
+
+
+class CaseFile(pytest.Module):
+    """A case file collected as a module of one test (pytest's own collection does the rest)."""
+
+    def _getobj(self) -> ModuleType:
+        try:
+            case = load_case(self.path)
+        except ConfigurationError as exc:
+            raise self.CollectError(str(exc)) from None
+        return _module(self.path, case)
