@@ -37,6 +37,7 @@ class Surroundings:
         self._body_id = -1
         self._velocity = np.zeros(6)
         self.air: tuple[float, float, float] = (0.0, 0.0, 0.0)
+        self._last = (0.0, 0.0, 0.0, -1.0)  # the body's position at the last measure, and when
 
     def attach(self, spec: Any) -> None:
         """Add the obstacles and the vehicle's collision sphere to the model's spec."""
@@ -121,4 +122,10 @@ class Surroundings:
         speed = 0.0
         if contact >= 0 and self.monitor.proximity.hit < 0:
             speed = math.hypot(*self._body_velocity(model, data))
+            # The contact may have stopped the body within the period: it came in at least
+            # as fast as it covered the period.
+            lx, ly, lz, lt = self._last
+            if 0.0 <= lt < time:
+                speed = max(speed, math.hypot(x - lx, y - ly, z - lz) / (time - lt))
+        self._last = (x, y, z, time)
         return self.monitor.update(time, y, x, z, speed, contact)

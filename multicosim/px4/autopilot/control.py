@@ -48,8 +48,12 @@ class Vehicle:
         ]
 
 
+VEL_P_XY = 1.8
+"""1/s: the horizontal velocity loop's gain (PX4's MPC_XY_VEL_P_ACC default)."""
 VEL_I_XY = 0.4
 """1/s²: the horizontal velocity loop's integral gain (PX4's MPC_XY_VEL_I_ACC default)."""
+ARW_GAIN = 2.0 / VEL_P_XY
+"""s: how much of the acceleration the tilt limit cuts is taken off the integrated error."""
 
 
 def _clamp(v: float, lo: float, hi: float) -> float:
@@ -127,14 +131,9 @@ class MultirotorController:
         # Velocity loop -> acceleration setpoint (NED).
         vi = self.vel_int
         ex, ey, ez = vel_sp[0] - vel[0], vel_sp[1] - vel[1], vel_sp[2] - vel[2]
-        # The horizontal integrator may learn as much acceleration as the tilt limit gives
-        # (PX4 bounds it by anti-windup, not by a small constant): a steady wind needs it.
-        lim = GRAVITY * math.tan(self.max_tilt) / VEL_I_XY
-        vi[0] = _clamp(vi[0] + ex * dt, -lim, lim)
-        vi[1] = _clamp(vi[1] + ey * dt, -lim, lim)
         vi[2] = _clamp(vi[2] + ez * dt, -3.0, 3.0)
-        ax = 1.8 * ex + VEL_I_XY * vi[0]
-        ay = 1.8 * ey + VEL_I_XY * vi[1]
+        ax = VEL_P_XY * ex + VEL_I_XY * vi[0]
+        ay = VEL_P_XY * ey + VEL_I_XY * vi[1]
         az = 4.0 * ez + 2.0 * vi[2]
         # Thrust vector: F = m (a - g); body z must point along -F.
         fx, fy, fz = v.mass * ax, v.mass * ay, v.mass * (az - GRAVITY)
@@ -142,7 +141,15 @@ class MultirotorController:
         horiz = math.hypot(fx, fy)
         max_h = -fz * math.tan(self.max_tilt)
         if horiz > max_h:
+            # Anti-reset windup as PX4's: while the tilt limit cuts the acceleration, the
+            # integrator learns from the error less what was cut (so it may grow as large
+            # as a steady wind needs, but not wind up in a fast move).
+            cut = 1.0 - max_h / horiz
+            ex -= ARW_GAIN * ax * cut
+            ey -= ARW_GAIN * ay * cut
             fx, fy = fx * max_h / horiz, fy * max_h / horiz
+        vi[0] += ex * dt
+        vi[1] += ey * dt
         norm = math.sqrt(fx * fx + fy * fy + fz * fz)
         zx, zy, zz = -fx / norm, -fy / norm, -fz / norm  # desired body z (down) axis, in NED
         # Collective thrust: the force's component along the current body z axis.

@@ -307,21 +307,22 @@ class Navigator(State):
         turn to the next one within ``acc`` m (PX4's FlightTaskAuto: the speed a turn by
         ``alpha`` allows, sqrt(a r tan(alpha / 2)), and braking towards it at MPC_ACC_HOR).
 
-        A waypoint the vehicle stops at (a hold time, a loiter, the last one) is reached at 0.
+        A waypoint the vehicle stops at (a hold time, a loiter, the last one) sets no limit: the
+        position loop brings it to a stop there.
         """
-        accel = self.params["MPC_ACC_HOR"]
-        turn = 0.0
         nxt = self._next_position(self.seq + 1)
-        stops = item.command != CMD_WAYPOINT or item.param1 > 0
-        if nxt is not None and not stops:
-            o = self._leg_origin
-            back = (o[0] - t[0], o[1] - t[1])
-            ahead = (nxt[0] - t[0], nxt[1] - t[1])
-            nb, na = math.hypot(*back), math.hypot(*ahead)
-            if nb > 1e-3 and na > 1e-3:
-                cos = (back[0] * ahead[0] + back[1] * ahead[1]) / (nb * na)
-                alpha = math.acos(max(-1.0, min(1.0, cos)))  # pi: straight on
-                turn = math.sqrt(accel * acc * math.tan(min(alpha / 2, 1.5)))
+        if nxt is None or item.command != CMD_WAYPOINT or item.param1 > 0:
+            return math.inf
+        o = self._leg_origin
+        back = (o[0] - t[0], o[1] - t[1])
+        ahead = (nxt[0] - t[0], nxt[1] - t[1])
+        nb, na = math.hypot(*back), math.hypot(*ahead)
+        if nb < 1e-3 or na < 1e-3:
+            return math.inf
+        cos = (back[0] * ahead[0] + back[1] * ahead[1]) / (nb * na)
+        alpha = math.acos(max(-1.0, min(1.0, cos)))  # pi: straight on
+        accel = self.params["MPC_ACC_HOR"]
+        turn = math.sqrt(accel * acc * math.tan(min(alpha / 2, 1.5)))
         return math.sqrt(turn * turn + 2.0 * accel * max(0.0, dist - acc))
 
     def _next_position(self, seq: int) -> tuple[float, float] | None:
