@@ -41,6 +41,7 @@ __all__ = [
     "ardupilot_params",
     "ardupilot_rover_simulation",
     "ardupilot_rover_simulator",
+    "ardupilot_world",
     "configured_dir",
 ]
 

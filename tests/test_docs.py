@@ -61,6 +61,8 @@ LISTINGS = (
     "real = px4.PX4(",
     "def test_the_mission_stays_below_30_m",
     "def test_altitude(px4_simulation):",
+    "def test_the_corridor_keeps_clear_of_the_mast",
+    'px4.Configuration.from_plan("tests/data/survey_site.plan")',
 )
 
 _FENCE = re.compile(r"^(?P<indent> *)```python\n(?P<code>.*?)^(?P=indent)```", re.M | re.S)
@@ -194,6 +196,28 @@ def test_pytest_listing_passes(pytester: pytest.Pytester) -> None:
 def test_px4_pytest_listing_passes(pytester: pytest.Pytester) -> None:
     pytester.makepyfile(_block("def test_the_mission_stays_below_30_m"))
     pytester.runpytest("--mcs-fidelity=low,medium").assert_outcomes(passed=2)
+
+
+def test_plan_listing_runs(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(ROOT)  # its files are the project's
+    result = _run('px4.Configuration.from_plan("tests/data/survey_site.plan")')["result"]
+    assert result.completed, result.reason
+    assert "has no effect" in " ".join(result.messages)  # its camera command, noted
+
+
+def test_uav_listings_pass(pytester: pytest.Pytester) -> None:
+    # The Python test and the file of the same test, both run from the project's root.
+    pytester.makepyfile(test_corridor=_block("def test_the_corridor_keeps_clear_of_the_mast"))
+    page = (ROOT / "docs" / "tutorials" / "uav-test.md").read_text()
+    (case,) = re.findall(r"```yaml\n(.*?)```", page, flags=re.DOTALL)
+    name = case.splitlines()[0].removeprefix("# ")
+    assert (ROOT / name).read_text() == case, f"the page shows {name} as it is"
+    (pytester.path / "scenarios" / "uav").mkdir(parents=True)
+    for plan in ("corridor.plan", "test_mast_beside_leg.mcs.yaml"):
+        source = ROOT / "scenarios" / "uav" / plan
+        (pytester.path / "scenarios" / "uav" / plan).write_text(source.read_text())
+    result = pytester.runpytest("--mcs-fidelity=low", "-p", "no:randomly")
+    result.assert_outcomes(passed=2)
 
 
 def test_failing_listing_reports_as_shown(pytester: pytest.Pytester) -> None:
