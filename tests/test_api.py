@@ -204,3 +204,32 @@ def test_fmi_exports_the_intended_names_and_loads_fmpy_on_use() -> None:
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
+
+
+class Goal(mcs.Message):
+    """Where to go."""
+
+    x: float
+
+
+def test_firmware_decorator_keeps_the_functions_name_docstring_and_signature() -> None:
+    import inspect
+    import pydoc
+
+    def goto(goal: Goal, ctx: mcs.FirmwareContext) -> float:
+        """Drive to ``goal.x``; return where the cart stopped."""
+        return goal.x
+
+    wrapped = mcs.firmware(msgtype=Goal, period=0.02)(goto)
+    assert isinstance(wrapped, mcs.Firmware)
+    assert wrapped.__name__ == "goto"
+    assert wrapped.__qualname__ == goto.__qualname__
+    assert wrapped.__module__ == __name__
+    assert wrapped.__doc__ == goto.__doc__
+    assert inspect.signature(wrapped) == inspect.signature(goto)
+    assert wrapped.__wrapped__ is goto
+    # help() shows the function's own docstring, not the generic Firmware text.
+    text = pydoc.plain(pydoc.render_doc(wrapped))
+    assert "Drive to ``goal.x``" in text
+    assert wrapped.name == "goto"
+    assert wrapped.period == 0.02
