@@ -60,10 +60,13 @@ def test_the_directory_comes_from_the_option_its_ini_twin_or_the_environment(
     else:
         monkeypatch.setenv("MCS_ARDUPILOT_DIR", str(directory))
     result = pytester.runpytest(*args)
-    # Low fidelity is skipped (ArduPilot flies MuJoCo); medium runs on the stand-in.
-    result.assert_outcomes(passed=2, skipped=2)
+    # Low fidelity is deselected (ArduPilot flies MuJoCo); medium runs on the stand-in.
+    result.assert_outcomes(passed=2, deselected=2)
     result.stdout.fnmatch_lines(
-        [f"multicosim ardupilot: real ArduPilot SITL from {directory}", "*no low fidelity*"]
+        [
+            f"multicosim ardupilot: real ArduPilot SITL from {directory}",
+            "multicosim: 2 deselected at fidelity levels they never run at",
+        ]
     )
 
 
