@@ -112,6 +112,13 @@ class FalsificationResult:
     none within the budget) and ``first_confirmed`` to the first counterexample every level
     confirms. ``lowest`` is the lowest robustness the optimizer was told and its sample.
     ``trials`` lists every simulation, confirmations included; ``stats`` sums them per level.
+
+    In a test, :meth:`assert_holds` is the assertion: it fails with :meth:`summary` (the
+    counterexample, its verdict at each level, its traces and how to replay it) when the
+    requirement was falsified::
+
+        def test_overshoot_holds():
+            falsify(simulate, "always (overshoot <= 0.15)", space, budget=50).assert_holds()
     """
 
     requirement: str
@@ -159,10 +166,14 @@ class FalsificationResult:
 
     def summary(self) -> str:
         """A human-readable account of the search and the confirmations."""
+        # Confirmations happen only above the search's level: a one-level search has none.
+        confirmations = len(self.trials) - self.simulations
+        ran = f"{self.simulations} simulations"
+        if len(self.levels) > 1:
+            ran += f" and {confirmations} confirmations at {', '.join(self.levels[1:])}"
         head = (
             f"falsifying {self.requirement!r} from {self.levels[0]} fidelity ({self.optimizer}, "
-            f"seed {self.seed}, budget {self.budget}): {self.simulations} simulations, "
-            f"{len(self.trials)} with confirmations, in {self.wall_time:.2f} s"
+            f"seed {self.seed}, budget {self.budget}): {ran}, in {self.wall_time:.2f} s"
         )
         lines = [head]
         for name in self.levels[1:]:
@@ -197,7 +208,12 @@ class FalsificationResult:
         return "\n".join(lines)
 
     def assert_holds(self) -> None:
-        """Raise AssertionError with the summary if the requirement was falsified."""
+        """Assert that the search found no confirmed counterexample (the pytest assertion).
+
+        Raises ``AssertionError`` with :meth:`summary` as its message if the requirement was
+        falsified (a violation every level confirmed); returns None otherwise. A violation
+        a higher level did not confirm does not fail it: ``result.first_violation`` tells.
+        """
         if self.falsified:
             raise AssertionError(self.summary())
 
