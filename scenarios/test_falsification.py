@@ -73,7 +73,9 @@ def horizontal_spoofs(max_offset: int = 20) -> st.SearchStrategy[attacks.Jump]:
 
     def build(metres: int, bearing: int, start: int) -> attacks.Jump:
         b = math.radians(bearing)
-        return attacks.Jump(offset=(metres * math.sin(b), metres * math.cos(b), 0.0), start=start)
+        return attacks.Jump(
+            offset=attacks.Local(east=metres * math.sin(b), north=metres * math.cos(b)), start=start
+        )
 
     return st.builds(
         build,

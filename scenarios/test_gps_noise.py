@@ -182,7 +182,7 @@ def _rover_run(
 
 ZERO: list[attacks.Model] = [
     attacks.Gaussian(std=0.0),
-    attacks.Bias(offset=(0.0, 0.0, 0.0)),
+    attacks.Bias(offset=attacks.Local()),
     attacks.Drift(std=0.0),
     attacks.Jump(offset=0.0, start=2.0, ramp=1.0),
     attacks.Delay(delay=0.0),

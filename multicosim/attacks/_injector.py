@@ -101,7 +101,7 @@ class InjectorConfig(msgspec.Struct, frozen=True, kw_only=True):
             raise ConfigurationError("wire", self.wire, f"'native' for the {self.vehicle}")
         models = check_models(
             self.models,
-            {name: q.size for name, q in spec.quantities.items()},
+            {name: q.axes for name, q in spec.quantities.items()},
             spec.default,
             f"the {self.vehicle} {self.sensor} ({spec.message.__name__})",
         )
@@ -131,7 +131,7 @@ class SensorInjector:
                 by_quantity.setdefault(model.on or self.sensor.default, []).append(model)
         for quantity, models in by_quantity.items():
             self._offsets[quantity] = Offsets(
-                models, self.sensor.quantities[quantity].size, quantity
+                models, self.sensor.quantities[quantity].axes, quantity
             )
         self._dropouts = [m for m in config.models if isinstance(m, Dropout)]
         self._delays = [m for m in config.models if isinstance(m, Delay) and m.delay > 0]
