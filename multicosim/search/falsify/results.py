@@ -53,12 +53,34 @@ class LevelResult:
 class Counterexample:
     """A violating sample and how it fares at each level it ran at (in level order).
 
-    ``found_at`` is the level the search found it at.
+    ``found_at`` is the level the search found it at; ``seed`` the seed every level ran it
+    with and ``requirement`` the formula it violates. :attr:`replay` says how to run it
+    again as a test; each level's ``traces`` hold what its run recorded (the trace of a
+    failing test: every channel, a plot with the vehicle's path).
     """
 
     example: Any
     found_at: str
     results: Mapping[str, LevelResult]
+    seed: int = 0
+    requirement: str = ""
+
+    @property
+    def replay(self) -> str:
+        """A pytest test that runs the counterexample again, and the command that runs it.
+
+        The sample, the lowest level that falsifies and the seed, with ``simulate`` standing
+        for the function the search called there.
+        """
+        level = self.lowest_failing or self.found_at
+        return (
+            "# in test_counterexample.py, beside your simulate function; run it with\n"
+            "#   python -m pytest test_counterexample.py\n"
+            "from multicosim import Requirement\n\n\n"
+            "def test_counterexample():\n"
+            f"    trajectory = simulate({self.example!r}, {level!r}, {self.seed!r})\n"
+            f"    Requirement({self.requirement!r}).check(trajectory)\n"
+        )
 
     @property
     def failing_levels(self) -> tuple[str, ...]:
@@ -194,11 +216,13 @@ class FalsificationResult:
             f"{self.first_confirmed}"
         )
         lines.append(f"counterexample (found at {cx.found_at}): {cx.example!r}")
-        lines.append(f"lowest fidelity that falsifies: {cx.lowest_failing}")
+        lines.append(f"lowest fidelity that falsifies: {cx.lowest_failing} (seed {cx.seed})")
         for level, r in cx.results.items():
             verdict = "FAILS" if r.falsified else "holds"
             lines.append(f"  {level:>6}: {verdict}  {r.evaluation.explain()}")
             lines.extend(f"          trace: {p}" for p in r.traces)
+        lines.append("replay it as a test:")
+        lines.extend(f"    {line}" for line in cx.replay.splitlines())
         saved = self.wall_time_saved
         if saved is not None:
             lines.append(

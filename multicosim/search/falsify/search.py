@@ -130,7 +130,9 @@ class Search:
             results[name] = self._simulate(index, sample, name)
         ordered = {name: results[name] for name in self.names if name in results}
         worst = max(r.evaluation.robustness for r in ordered.values() if r.falsified)
-        return worst, Counterexample(sample, level, ordered)
+        return worst, Counterexample(
+            sample, level, ordered, seed=self.seed, requirement=self.requirement.formula
+        )
 
     def _simulate(self, index: int, sample: Any, level: str) -> LevelResult:
         from ... import trace
@@ -146,7 +148,8 @@ class Search:
                     "seed": self.seed,
                     "failing_example": repr(sample),
                     "requirement": self.requirement.formula,
-                }
+                },
+                record_started=True,
             )
             recording = trace.activate(session)
         started = time.perf_counter()
