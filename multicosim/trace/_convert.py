@@ -34,6 +34,8 @@ PATH_CHANNEL = "mcs/path"  # mcs/path/<label>: local east/north/up points, for p
 TRAJECTORY_CHANNEL = "mcs/trajectory"
 PLAN_CHANNEL = "mcs/plan"
 ROBUSTNESS_CHANNEL = "mcs/robustness"
+# An attack's window: {"sensor", "model", "start", "end"} (s; end None: to the end of the run).
+ATTACK_CHANNEL = "mcs/attack"
 
 
 @dataclasses.dataclass(frozen=True)
