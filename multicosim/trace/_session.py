@@ -120,6 +120,22 @@ class TestTrace:
                 self._wrapped[id(found)] = simulation
             return found
 
+    def take(self, other: TestTrace) -> None:
+        """Hold what ``other`` recorded instead of what this one did (a search's run).
+
+        A falsification inside a test hands over the last violating run, so that the
+        test's trace is that run's, as a failing test's is.
+        """
+        if not self.record:
+            return
+        other.detach()
+        with self._lock:
+            self.detach()
+            self.recorders = list(other.recorders)
+            self._sources = dict(other._sources)
+            self._wrapped = dict(other._wrapped)
+            self._evaluation = other._evaluation
+
     def begin_example(self) -> None:
         """A new Hypothesis example starts: drop the recordings of the previous one."""
         with self._lock:

@@ -7,9 +7,12 @@ import sys
 from pathlib import Path
 from typing import Any
 
+import pytest
+from matplotlib.patches import Rectangle
+
 import multicosim.attacks as attacks
 import multicosim.px4 as px4
-from multicosim.falsify import falsify
+from multicosim.falsify import FalsificationResult, falsify
 from multicosim.geo import LocalProjection
 from multicosim.trace import read_trace
 from multicosim.trace._plot import figure
@@ -30,20 +33,24 @@ def simulate(sample: dict[str, float], fidelity: str, seed: int) -> dict[str, li
     return {"time": [s.time for s in result.trajectory], "north": north}
 
 
-def test_a_px4_counterexample_trace_holds_the_runs_channels_and_its_path(
-    tmp_path: Path,
-) -> None:
-    # A spoof 15-20 m south makes PX4 fly as far past its waypoint, 25 m north: a violation.
-    result = falsify(
+def search(seed: int, trace_dir: Path | None = None) -> FalsificationResult:
+    """A spoof 15-20 m south makes PX4 fly as far past its waypoint, 25 m north: a violation."""
+    return falsify(
         simulate,
         "always (north <= 35)",
         {"north": (-20.0, -15.0), "start": (5.0, 10.0)},
         optimizer="random",
         levels="low",
         budget=3,
-        seed=1,
-        trace_dir=tmp_path / "traces",
+        seed=seed,
+        trace_dir=trace_dir,
     )
+
+
+def test_a_px4_counterexample_trace_holds_the_runs_channels_and_its_path(
+    tmp_path: Path,
+) -> None:
+    result = search(1, tmp_path / "traces")
     assert result.falsified, result.summary()
     cx = result.counterexample
     assert cx is not None
@@ -62,8 +69,15 @@ def test_a_px4_counterexample_trace_holds_the_runs_channels_and_its_path(
         "mcs/plan",
         "mcs/trajectory",
         "mcs/robustness",
+        "mcs/attack",
     } <= set(trace.channels)
-    ax_path = figure(trace).axes[0]
+    ax_path, ax_signals, ax_rob = figure(trace).axes
+    # The spoof's window is shaded where the signals and the margin are drawn.
+    for ax in (ax_signals, ax_rob):
+        (window,) = [p for p in ax.patches if p.get_gid() == "attack/gps/Jump"]
+        assert window.get_label() == "attack: Jump on gps"
+        assert isinstance(window, Rectangle)
+        assert window.get_x() == cx.example["start"]
     lines: dict[Any, Any] = {line.get_gid(): line for line in ax_path.get_lines()}
     assert ax_path.get_title().startswith("path")
     assert max(lines["path/truth"].get_ydata()) > 35  # north past the bound, drawn
@@ -89,3 +103,27 @@ def test_a_px4_counterexample_trace_holds_the_runs_channels_and_its_path(
     assert run.returncode == 1, run.stdout + run.stderr
     assert "1 failed" in run.stdout
     assert "RequirementViolation" in run.stdout
+
+
+FALSIFICATION_TEST = """
+from test_search_traces import search
+
+
+def test_no_spoof_pulls_px4_past_35_m(mcs_seed):
+    search(mcs_seed).assert_holds()
+"""
+
+
+def test_a_failing_falsification_test_keeps_the_violating_runs_trace(
+    pytester: pytest.Pytester,
+) -> None:
+    pytester.makepyfile(test_inner=FALSIFICATION_TEST)
+    result = pytester.runpytest("--mcs-artifacts=arts", "--mcs-seed=1", "-p", "no:cacheprovider")
+    result.assert_outcomes(failed=1)
+    result.stdout.fnmatch_lines(["*replay it as a test:*", "trace: *trace.mcap"])
+    (mcap,) = (pytester.path / "arts").rglob("trace.mcap")
+    trace = read_trace(mcap)
+    assert {"px4/gps/attacked", "mcs/path/truth", "mcs/attack", "mcs/robustness"} <= set(
+        trace.channels
+    )
+    assert float(trace.info["robustness"]) < 0

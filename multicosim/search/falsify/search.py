@@ -54,6 +54,11 @@ class Search:
         self.fidelity_dim = fidelity_dim
         self.trace_dir = trace_dir
         self.bar = bar
+        from ... import trace
+
+        # Inside a test (pytest's trace is active), the test's trace gets the last violating
+        # run's recording: a failing falsification test leaves the trace a failing test does.
+        self.test_trace = trace.active()
         self.simulations = 0
         self.first: int | None = None
         self.confirmed_at: int | None = None
@@ -141,7 +146,7 @@ class Search:
         run = spec.simulate or self.run
         session = None
         recording: contextlib.AbstractContextManager[Any] = contextlib.nullcontext()
-        if self.trace_dir is not None:
+        if self.trace_dir is not None or self.test_trace is not None:
             session = trace.TestTrace(
                 metadata={
                     "fidelity": level,
@@ -158,9 +163,12 @@ class Search:
         wall = time.perf_counter() - started
         self.trials.append(Trial(index, sample, level, evaluation.robustness, wall))
         saved: tuple[Path, ...] = ()
-        if session is not None and self.trace_dir is not None and not evaluation.satisfied:
-            directory = self.trace_dir / f"sample-{index:05d}" / level
-            saved = tuple(session.save(directory))
+        if session is not None and not evaluation.satisfied:
+            if self.test_trace is not None:
+                self.test_trace.take(session)
+            if self.trace_dir is not None:
+                directory = self.trace_dir / f"sample-{index:05d}" / level
+                saved = tuple(session.save(directory))
         return LevelResult(level, evaluation, wall, saved)
 
     def stats(self) -> dict[str, LevelStats]:
