@@ -422,6 +422,7 @@ def test_gps_noise_fixture_needs_one_scenario_simulator(pytester: pytest.Pyteste
         """
         import pytest
         import multicosim as mcs
+        import multicosim.attacks as attacks
 
         def test_neither(gps_noise):
             with pytest.raises(mcs.ConfigurationError, match="exactly one"):
@@ -432,7 +433,9 @@ def test_gps_noise_fixture_needs_one_scenario_simulator(pytester: pytest.Pyteste
                 gps_noise(std=1.0)
 
         def test_rover(rover_simulator, gps_noise):
-            injector = gps_noise(std=1.0, spoof=(1.0, 0.0, 0.0), start=2.0, end=5.0, delay=0.1)
+            injector = gps_noise(
+                std=1.0, spoof=attacks.Local(east=1.0), start=2.0, end=5.0, delay=0.1
+            )
             assert [type(m).__name__ for m in injector.config.models] == [
                 "Gaussian", "Jump", "Delay"
             ]
