@@ -61,6 +61,9 @@ class CartState(Message):
 class Cart:
     """A 1-D cart: integrates the commanded speed every ``period``; publishes ``state``.
 
+    It listens on the topic ``cmd`` for :class:`Speed` messages (the last one received in a
+    step sets the speed) and publishes a :class:`CartState` on ``state`` every step: a
+    controller of your own drives it with ``ctx.publish("cmd", Speed(speed=1.0))``.
     ``noise`` adds seeded Gaussian noise to the published position (exercises ``ctx.rng``).
     """
 
@@ -72,7 +75,7 @@ class Cart:
         self.command: Subscription[Speed] | None = None
 
     def setup(self, ctx: StepContext) -> None:
-        """Subscribe to ``cmd``."""
+        """Subscribe to ``cmd`` (:class:`Speed` messages)."""
         self.command = ctx.subscribe("cmd", Speed)
 
     def step(self, ctx: StepContext) -> None:

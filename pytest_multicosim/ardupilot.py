@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING, Any
 
 import pytest
 
+from .fidelity import deselect, fidelity_of
 from .simulations import tracked
 
 if TYPE_CHECKING:
@@ -169,6 +170,19 @@ def ardupilot_rover_simulator(
 def ardupilot_rover_simulation(ardupilot_rover_simulator: Rover) -> ArduPilotSimulation:
     """A started ArduRover simulation (world, ArduRover, ground station); always stopped."""
     return ardupilot_rover_simulator.start()
+
+
+_SIMULATORS = frozenset({"ardupilot_copter_simulator", "ardupilot_rover_simulator"})
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    # ArduPilot flies the MuJoCo world only: a low-fidelity run of it is no test at all.
+    deselect(config, items, _at_low)
+
+
+def _at_low(item: pytest.Item) -> bool:
+    uses = _SIMULATORS & set(getattr(item, "fixturenames", ()))
+    return bool(uses) and fidelity_of(item) == "low"
 
 
 def pytest_report_header(config: pytest.Config) -> str | None:

@@ -8,14 +8,15 @@ ArduPilot's own simulated sensor faults::
 
     @pytest.mark.fidelity("low", "medium")
     def test_spoof(px4_simulator, gps_noise):
-        gps_noise(spoof=(0.0, 10.0, 0.0), start=8.0)   # 10 m north from t = 8 s
+        gps_noise(spoof=attacks.Local(north=10.0), start=8.0)   # 10 m north from t = 8 s
         simulation = px4_simulator.start()
         result = simulation.firmware.send(config)
 
 Call it before starting the simulator. Keyword arguments build the models (all share
 ``start`` and ``end``): ``std``/``mean`` (Gaussian noise), ``bias``, ``drift`` and
 ``drift_rate`` (random walk), ``spoof`` and ``ramp`` (a jump), ``dropout`` (no fix),
-``delay`` (s); ``models`` adds any :mod:`multicosim.attacks` models as they are. ``sensor``
+``delay`` (s); a position's values are given by name (``multicosim.attacks.Local``), a
+body axis's as a tuple; ``models`` adds any :mod:`multicosim.attacks` models as they are. ``sensor``
 picks another sensor (``"mag"``/``"magnetometer"``, ``"baro"``, ...). Heavy imports happen
 inside the fixture.
 """
@@ -29,7 +30,10 @@ import pytest
 
 if TYPE_CHECKING:
     from multicosim.ardupilot.faults import FaultsComponent
-    from multicosim.attacks import InjectorComponent, Model
+    from multicosim.attacks import InjectorComponent, Local, Model
+
+    # A number for every axis, one per axis, or a position's axes by name.
+    Vector = float | Sequence[float] | Local
 
 __all__ = ["GpsNoise", "gps_noise"]
 
@@ -39,7 +43,6 @@ SCENARIOS = (
     "ardupilot_copter_simulator",
     "ardupilot_rover_simulator",
 )
-Vector = float | Sequence[float]
 
 
 class GpsNoise:
@@ -82,8 +85,10 @@ class GpsNoise:
         """Add an injector with these models; returns the added component."""
         from multicosim import attacks
 
-        def vector(value: Vector) -> float | tuple[float, ...]:
-            return value if isinstance(value, int | float) else tuple(value)
+        def vector(value: Vector) -> float | tuple[float, ...] | Local:
+            if isinstance(value, int | float | attacks.Local):
+                return value
+            return tuple(value)
 
         window: dict[str, Any] = {"start": start, "end": end}
         built: list[Model] = [attacks.Gaussian(std=vector(std), mean=vector(mean), on=on, **window)]

@@ -154,12 +154,13 @@ def _value(config: pytest.Config, name: str) -> tuple[str, str]:
 
 def parse_fidelity(text: str, source: str = "--mcs-fidelity") -> tuple[str, ...]:
     """Parse a comma list of fidelity levels; raise UsageError naming the allowed values."""
-    levels = tuple(part.strip() for part in text.split(",") if part.strip())
+    levels = tuple(part.strip() for part in text.split(","))
     bad = [level for level in levels if level not in FIDELITIES]
-    if not levels or bad:
+    if bad:
+        # An empty item ("low,,medium", "low,") is refused too: a typo, not a level.
+        named = ", ".join("an empty item" if not level else repr(level) for level in bad)
         raise pytest.UsageError(
-            f"{source}: {text!r} names no known fidelity level "
-            f"({', '.join(map(repr, bad)) or 'none given'}); "
+            f"{source}: {text!r} names no known fidelity level ({named}); "
             f"allowed: {', '.join(FIDELITIES)} (or a comma list of them)"
         )
     return tuple(dict.fromkeys(levels))
@@ -175,11 +176,16 @@ def _unwritable(path: Path) -> str | None:
     while not existing.exists() and existing.parent != existing:
         existing = existing.parent
     if not existing.is_dir():
-        return f"{existing} is not a directory"
+        if existing == path:
+            return f"{path} is not a directory"
+        return f"the directory {path} cannot be created ({existing} is not a directory)"
     try:
         probe = tempfile.mkdtemp(prefix=".mcs-probe-", dir=existing)
     except OSError as exc:
-        return f"cannot write in {existing} ({exc.strerror or exc})"
+        why = exc.strerror or str(exc)
+        if existing == path:
+            return f"cannot write in {path} ({why})"
+        return f"the directory {path} cannot be created (making one in {existing} fails: {why})"
     os.rmdir(probe)
     return None
 

@@ -24,7 +24,7 @@ from ._signals import SigtermAsInterrupt
 from .activity import Activity, activity_key, acts_for, fixture_names, nested
 from .artifacts import recording
 from .docker import sweep_containers
-from .fidelity import MARKER, parametrize
+from .fidelity import MARKER, deselect, deselected_key, parametrize, unlisted
 from .fixtures import sigterm_key
 from .options import add_options, given, read_settings, settings_key
 from .reports import annotate, header
@@ -97,17 +97,27 @@ def pytest_report_header(config: pytest.Config) -> str | None:
     return header(config) if config.stash[activity_key].explicit else None
 
 
-def pytest_report_collectionfinish(
-    config: pytest.Config, start_path: Path, items: list[pytest.Item]
-) -> str | None:
-    # Without an option the header waits for collection: only a suite with tests of ours shows it.
-    if config.stash[activity_key].explicit or not any(acts_for(item) for item in items):
-        return None
-    return header(config)
-
-
 def pytest_generate_tests(metafunc: pytest.Metafunc) -> None:
     parametrize(metafunc)
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    deselect(config, items, unlisted)
+
+
+def pytest_report_collectionfinish(
+    config: pytest.Config, start_path: Path, items: list[pytest.Item]
+) -> list[str]:
+    lines: list[str] = []
+    # Without an option the header waits for collection: only a suite with tests of ours shows it.
+    if not config.stash[activity_key].explicit and any(acts_for(item) for item in items):
+        lines.append(header(config))
+    # One line for the tests deselected at levels they never run at (their marker's, real
+    # firmware's): a skip then always means that something a test needed was missing.
+    count = config.stash.get(deselected_key, 0)
+    if count:
+        lines.append(f"multicosim: {count} deselected at fidelity levels they never run at")
+    return lines
 
 
 @pytest.hookimpl(wrapper=True)

@@ -33,6 +33,7 @@ import pytest
 
 from multicosim.core.fidelity import check_fidelity
 
+from .fidelity import deselect
 from .simulations import tracked
 
 if TYPE_CHECKING:
@@ -107,15 +108,12 @@ def pytest_generate_tests(metafunc: pytest.Metafunc) -> None:
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     # Real PX4 flies the MuJoCo world only: a low-fidelity run of it is no test at all.
-    kept: list[pytest.Item] = []
-    dropped: list[pytest.Item] = []
-    for item in items:
-        params = _params(item)
-        real_low = params.get("px4_autopilot") == "sitl" and params.get("mcs_fidelity") == "low"
-        (dropped if real_low else kept).append(item)
-    if dropped:
-        config.hook.pytest_deselected(items=dropped)
-        items[:] = kept
+    deselect(config, items, _real_at_low)
+
+
+def _real_at_low(item: pytest.Item) -> bool:
+    params = _params(item)
+    return params.get("px4_autopilot") == "sitl" and params.get("mcs_fidelity") == "low"
 
 
 def _params(item: pytest.Item) -> dict[str, Any]:

@@ -9,6 +9,7 @@ report readers) get the same facts as the test's ``user_properties``.
 from __future__ import annotations
 
 import shlex
+import sys
 from pathlib import Path
 
 import pytest
@@ -35,12 +36,15 @@ def header(config: pytest.Config) -> str:
 def replay_command(settings: Settings, item: pytest.Item) -> str:
     """The command that runs ``item`` again with the same seed, fidelity and backend.
 
-    The test is named by its absolute path, so the command works from any directory.
+    The test is named by its absolute path and pytest by the interpreter that runs this
+    session (``/path/to/python -m pytest``), so the command works from any directory, with
+    or without the virtual environment activated.
     """
     _, sep, rest = item.nodeid.partition("::")
     target = str(item.path) + (sep + rest if sep else "")
     # Quoted for a POSIX shell: parametrized ids may hold quotes, spaces or brackets.
-    return f"pytest {shlex.quote(target)} {settings.replay_args(fidelity_of(item))}"
+    pytest_cmd = f"{shlex.quote(sys.executable)} -m pytest"
+    return f"{pytest_cmd} {shlex.quote(target)} {settings.replay_args(fidelity_of(item))}"
 
 
 def verdict(item: pytest.Item, call: pytest.CallInfo[None]) -> str:
@@ -52,7 +56,7 @@ def verdict(item: pytest.Item, call: pytest.CallInfo[None]) -> str:
     test_trace = item.stash.get(trace_key, None)
     evaluation = getattr(test_trace, "evaluation", None)
     first = getattr(evaluation, "first_violation", None)
-    if first is not None:
+    if first is not None and "first violated at" not in line:
         line += f"; first violated at t={first:.6g} s"
     return line
 

@@ -153,7 +153,9 @@ def rover_lane(sample: Mapping[str, Any], fidelity: str, seed: int) -> dict[str,
     mission = rover.Mission(speed=sample["speed"], **LANE_MISSION)
     simulator = rover.Rover(fidelity=fidelity, seed=seed, noise=NOISE)  # type: ignore[arg-type]
     spoof = attacks.Jump(
-        offset=(sample["east"], sample["north"], 0.0), start=sample["start"], ramp=sample["ramp"]
+        offset=attacks.Local(east=sample["east"], north=sample["north"]),
+        start=sample["start"],
+        ramp=sample["ramp"],
     )
     attacks.inject(simulator, "gps", [spoof])
     truth = _Truth()
@@ -284,7 +286,9 @@ def px4_geofence(
     ``firmware``: real PX4 SITL flies it (medium or high fidelity) instead of the built-in
     autopilot."""
     spoof = attacks.Jump(
-        offset=(sample["east"], sample["north"], 0.0), start=sample["start"], ramp=sample["ramp"]
+        offset=attacks.Local(east=sample["east"], north=sample["north"]),
+        start=sample["start"],
+        ramp=sample["ramp"],
     )
     result = _fly([spoof], "gps", fidelity, seed, firmware)
     distance = [math.hypot(*PROJECTION.project(s.true_lat, s.true_lon)) for s in result.trajectory]

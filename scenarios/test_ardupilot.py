@@ -18,6 +18,7 @@ import math
 import pytest
 
 import multicosim.ardupilot as ardupilot
+import multicosim.attacks as attacks
 from multicosim.core.geo import LocalProjection
 from pytest_multicosim.gps_noise import GpsNoise
 
@@ -195,7 +196,7 @@ def test_copter_gps_spoof_pulls_the_vehicle_by_its_offset(
     ardupilot_copter_simulator: ardupilot.Copter, gps_noise: GpsNoise
 ) -> None:
     # From t = 90 s, when it holds at the waypoint: 10 m north, ramped over 2 s.
-    gps_noise(spoof=(0.0, 10.0, 0.0), start=90.0, ramp=2.0)
+    gps_noise(spoof=attacks.Local(north=10.0), start=90.0, ramp=2.0)
     simulation = ardupilot_copter_simulator.start()
     home = simulation.home
     config = ardupilot.Configuration([wp(home, 0, 40, 10)], end="hold", acceptance_radius=1.0)

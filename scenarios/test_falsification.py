@@ -73,7 +73,9 @@ def horizontal_spoofs(max_offset: int = 20) -> st.SearchStrategy[attacks.Jump]:
 
     def build(metres: int, bearing: int, start: int) -> attacks.Jump:
         b = math.radians(bearing)
-        return attacks.Jump(offset=(metres * math.sin(b), metres * math.cos(b), 0.0), start=start)
+        return attacks.Jump(
+            offset=attacks.Local(east=metres * math.sin(b), north=metres * math.cos(b)), start=start
+        )
 
     return st.builds(
         build,
@@ -114,8 +116,8 @@ def test_gps_spoof_breaks_tracking_and_shrinks_to_the_limit(mcs_seed: int) -> No
     assert result.falsified, result.summary()
     assert result.counterexample is not None
     spoof = result.counterexample.example
-    assert isinstance(spoof.offset, tuple)
-    size = math.hypot(spoof.offset[0], spoof.offset[1])
+    assert isinstance(spoof.offset, attacks.Local)
+    size = math.hypot(spoof.offset.north, spoof.offset.east)
     # Shrunk to the limit: the estimate follows the spoof (overshooting it a little), so the
     # error is about the offset and the smallest spoof that breaks the requirement is ~5 m.
     assert size == pytest.approx(LIMIT, abs=1.01), result.summary()
@@ -158,7 +160,7 @@ def test_a_failing_spoof_property_leaves_a_trace_and_a_plot(pytester: pytest.Pyt
             "*requirement 'always (error <= 5)' is violated*",
             "*: test_spoofs_keep_tracking(",
             "*spoof=build(5, 0, 3),",  # shrunk: 5 m north from 3 s
-            "replay: pytest *test_spoof.py::test_spoofs_keep_tracking* --mcs-seed=0*",
+            "replay: * -m pytest *test_spoof.py::test_spoofs_keep_tracking* --mcs-seed=0*",
             "trace: */test_spoof.py_test_spoofs_keep_tracking_low/seed-0-process/trace.mcap",
             "plot: */test_spoof.py_test_spoofs_keep_tracking_low/seed-0-process/trace.png",
         ]

@@ -81,7 +81,7 @@ def test_px4_mission_completes_within_tolerance_under_small_noise(
 def test_px4_gps_spoof_pulls_the_vehicle_by_its_offset(
     px4_simulator: px4.PX4, gps_noise: GpsNoise
 ) -> None:
-    gps_noise(spoof=(0.0, 10.0, 0.0), start=8.0, ramp=2.0)  # 10 m north, ramped over 2 s
+    gps_noise(spoof=attacks.Local(north=10.0), start=8.0, ramp=2.0)  # 10 m north, ramped
     result = px4_simulator.start().firmware.send(
         px4.Configuration([wp(0, 40, 10)], end="hold", acceptance_radius=1.0)
     )
@@ -126,7 +126,7 @@ def test_rover_gps_spoof_pulls_the_rover_off_its_path(
     rover_simulator: rover.Rover, gps_noise: GpsNoise
 ) -> None:
     # 2 m ahead (east, the first leg's direction) from t = 2 s, during the first leg.
-    injector = gps_noise(spoof=(2.0, 0.0, 0.0), start=2.0)
+    injector = gps_noise(spoof=attacks.Local(east=2.0), start=2.0)
     assert isinstance(injector.config, attacks.InjectorConfig)  # the rover's is an injector
     truth = probe(rover_simulator, injector.config.source, Position, 0.025)
     trajectory = rover_simulator.start().controller.send(ROVER_MISSION)
@@ -182,7 +182,7 @@ def _rover_run(
 
 ZERO: list[attacks.Model] = [
     attacks.Gaussian(std=0.0),
-    attacks.Bias(offset=(0.0, 0.0, 0.0)),
+    attacks.Bias(offset=attacks.Local()),
     attacks.Drift(std=0.0),
     attacks.Jump(offset=0.0, start=2.0, ramp=1.0),
     attacks.Delay(delay=0.0),

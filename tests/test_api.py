@@ -204,3 +204,68 @@ def test_fmi_exports_the_intended_names_and_loads_fmpy_on_use() -> None:
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
+
+
+class Goal(mcs.Message):
+    """Where to go."""
+
+    x: float
+
+
+def test_firmware_decorator_keeps_the_functions_name_docstring_and_signature() -> None:
+    import inspect
+    import pydoc
+
+    def goto(goal: Goal, ctx: mcs.FirmwareContext) -> float:
+        """Drive to ``goal.x``; return where the cart stopped."""
+        return goal.x
+
+    wrapped = mcs.firmware(msgtype=Goal, period=0.02)(goto)
+    assert isinstance(wrapped, mcs.Firmware)
+    assert wrapped.__name__ == "goto"
+    assert wrapped.__qualname__ == goto.__qualname__
+    assert wrapped.__module__ == __name__
+    assert wrapped.__doc__ == goto.__doc__
+    assert inspect.signature(wrapped) == inspect.signature(goto)
+    assert wrapped.__wrapped__ is goto
+    # help() shows the function's own docstring, not the generic Firmware text.
+    text = pydoc.plain(pydoc.render_doc(wrapped))
+    assert "Drive to ``goal.x``" in text
+    assert wrapped.name == "goto"
+    assert wrapped.period == 0.02
+
+
+def test_essentials_are_documented_where_help_finds_them() -> None:
+    import inspect
+
+    from multicosim import testing
+    from multicosim.falsify import FalsificationResult
+
+    # The assertion a falsification test ends with, and the topic the cart listens on.
+    assert "AssertionError" in str(inspect.getdoc(FalsificationResult.assert_holds))
+    assert "assert_holds" in str(inspect.getdoc(FalsificationResult))
+    assert "topic ``cmd``" in str(inspect.getdoc(testing.Cart))
+
+
+def test_the_cart_moves_as_its_documented_topic_commands() -> None:
+    from multicosim import testing
+
+    seen: list[float] = []
+
+    class Commander:
+        period = 0.01
+
+        def setup(self, ctx: mcs.StepContext) -> None:
+            self.state = ctx.subscribe("state", testing.CartState)
+
+        def step(self, ctx: mcs.StepContext) -> None:
+            ctx.publish("cmd", testing.Speed(speed=2.0))
+            if self.state.latest is not None:
+                seen.append(self.state.latest.x)
+
+    simulator = mcs.ProcessSimulator(seed=0)
+    simulator.add(mcs.InProcessComponent(Commander, name="commander"))
+    simulator.add(mcs.InProcessComponent(testing.Cart, name="cart"))
+    with simulator.start() as simulation:
+        simulation.advance(1.0)
+    assert seen[-1] == pytest.approx(2.0, abs=0.1)  # 2 m/s for about a second

@@ -38,6 +38,7 @@ from ..attacks.models import (
     check_models,
     subscribe_streams,
 )
+from ..attacks.sensors import ENU
 from ..core.errors import ConfigurationError, MulticosimError
 from ..core.geo import Home, LocalProjection
 from ..core.interfaces import Node
@@ -53,13 +54,13 @@ __all__ = ["SENSORS", "FaultsComponent", "FaultsConfig", "SimulatedFaults"]
 # delay's default: ArduPilot's SIM_GPS_LAG_MS is 100 ms).
 SENSORS: dict[str, dict[str, Any]] = {
     "gps": {
-        "quantity": ("position", 3),
+        "quantity": ("position", ENU),
         "offset": ("SIM_GPS_GLITCH_X", "SIM_GPS_GLITCH_Y", "SIM_GPS_GLITCH_Z"),
         "dropout": "SIM_GPS_DISABLE",
         "delay": ("SIM_GPS_LAG_MS", 100.0),
     },
     "baro": {
-        "quantity": ("altitude", 1),
+        "quantity": ("altitude", ("up",)),
         "offset": ("SIM_BARO_GLITCH",),
         "dropout": "SIM_BARO_DISABLE",
         "delay": ("SIM_BARO_DELAY", 0.0),
@@ -96,9 +97,9 @@ class FaultsConfig(msgspec.Struct, frozen=True, kw_only=True):
                 f"(or {tuple(ALIASES)})",
             )
         msgspec.structs.force_setattr(self, "sensor", sensor)
-        quantity, size = SENSORS[sensor]["quantity"]
+        quantity, axes = SENSORS[sensor]["quantity"]
         models = check_models(
-            self.models, {quantity: size}, quantity, f"ArduPilot's simulated {sensor} faults"
+            self.models, {quantity: axes}, quantity, f"ArduPilot's simulated {sensor} faults"
         )
         msgspec.structs.force_setattr(self, "models", models)
         period = self.period
@@ -115,8 +116,8 @@ class SimulatedFaults:
         spec = SENSORS[config.sensor]
         self._spec = spec
         additive = [m for m in config.models if isinstance(m, Additive)]
-        quantity, size = spec["quantity"]
-        self._offsets = Offsets(additive, size, quantity) if additive else None
+        quantity, axes = spec["quantity"]
+        self._offsets = Offsets(additive, axes, quantity) if additive else None
         self._dropouts = [m for m in config.models if isinstance(m, Dropout)]
         self._delays = [m for m in config.models if isinstance(m, Delay)]
         self._projection = LocalProjection.at(config.home)

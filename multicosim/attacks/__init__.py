@@ -11,7 +11,10 @@ injector reads it there, corrupts it with seeded, combinable models, each active
     attacks.inject(
         simulator,
         "gps",
-        [attacks.Gaussian(std=0.5), attacks.Jump(offset=(0.0, 4.0, 0.0), start=3.0, ramp=2.0)],
+        [
+            attacks.Gaussian(std=0.5),
+            attacks.Jump(offset=attacks.Local(north=4.0), start=3.0, ramp=2.0),
+        ],
     )
     with simulator.start() as simulation:
         trajectory = simulation.controller.send(rover.Mission(speed=3.0))
@@ -22,7 +25,8 @@ as an FMU's environment model), :class:`Dropout`, :class:`Delay`. Sensors: the r
 ``position`` (alias ``gps``), ``magnetometer``, ``imu``, ``wheel_speed``; PX4's ``gps``,
 ``mag``, ``baro``, ``imu``; a vehicle of your own registers its sensors with
 :func:`register`. Quantities (what additive models offset, ``on=``): positions in
-metres east/north/up, ``heading`` in radians, fields and rates per body axis.
+metres, by name (:class:`Local`: north, east, up), ``heading`` in radians, fields and rates
+per body axis.
 """
 
 from __future__ import annotations
@@ -37,6 +41,7 @@ from .models import (
     Dropout,
     Gaussian,
     Jump,
+    Local,
     Model,
     Stream,
     Window,
@@ -57,6 +62,7 @@ __all__ = [
     "InjectorComponent",
     "InjectorConfig",
     "Jump",
+    "Local",
     "Model",
     "Quantity",
     "Sensor",

@@ -26,6 +26,7 @@ from ..core.errors import ConfigurationError
 from ..core.interfaces import Node
 from ..local import InProcessComponent, LocalEnvironment, ProcessComponent, participant_command
 from ..mavlink.hil import Wire
+from ..trace import ATTACK_CHANNEL
 from .models import (
     Additive,
     Delay,
@@ -33,6 +34,7 @@ from .models import (
     Model,
     Offsets,
     check_models,
+    is_zero,
     subscribe_streams,
 )
 from .sensors import Sensor, canonical, load, module_of, sensor
@@ -40,7 +42,14 @@ from .sensors import Sensor, canonical, load, module_of, sensor
 if TYPE_CHECKING:
     from ..runtime.context import StepContext, Subscription
 
-__all__ = ["PROGRAM", "InjectorComponent", "InjectorConfig", "SensorInjector", "injector"]
+__all__ = [
+    "PROGRAM",
+    "AttackWindow",
+    "InjectorComponent",
+    "InjectorConfig",
+    "SensorInjector",
+    "injector",
+]
 
 PROGRAM = "multicosim.attacks:injector"
 WIRES: tuple[Wire, ...] = ("native", "mavlink")
@@ -101,7 +110,7 @@ class InjectorConfig(msgspec.Struct, frozen=True, kw_only=True):
             raise ConfigurationError("wire", self.wire, f"'native' for the {self.vehicle}")
         models = check_models(
             self.models,
-            {name: q.size for name, q in spec.quantities.items()},
+            {name: q.axes for name, q in spec.quantities.items()},
             spec.default,
             f"the {self.vehicle} {self.sensor} ({spec.message.__name__})",
         )
@@ -111,6 +120,20 @@ class InjectorConfig(msgspec.Struct, frozen=True, kw_only=True):
     def spec(self) -> Sensor:
         """The sensor's message and quantities."""
         return sensor(self.vehicle, self.sensor)
+
+
+class AttackWindow(msgspec.Struct, frozen=True, kw_only=True):
+    """When a model acts on a sensor: what an injector tells a trace (``mcs/attack``)."""
+
+    sensor: str
+    model: str
+    start: float
+    end: float | None
+
+    @classmethod
+    def of(cls, sensor: str, model: Model) -> AttackWindow:
+        """The window of ``model`` on ``sensor``."""
+        return cls(sensor=sensor, model=type(model).__name__, start=model.start, end=model.end)
 
 
 class SensorInjector:
@@ -131,11 +154,12 @@ class SensorInjector:
                 by_quantity.setdefault(model.on or self.sensor.default, []).append(model)
         for quantity, models in by_quantity.items():
             self._offsets[quantity] = Offsets(
-                models, self.sensor.quantities[quantity].size, quantity
+                models, self.sensor.quantities[quantity].axes, quantity
             )
         self._dropouts = [m for m in config.models if isinstance(m, Dropout)]
         self._delays = [m for m in config.models if isinstance(m, Delay) and m.delay > 0]
         self._held: deque[tuple[int, Any]] = deque()
+        self._announced = False
 
     def setup(self, ctx: StepContext) -> None:
         """Subscribe to the raw topic (and to the topics of Stream models)."""
@@ -146,6 +170,12 @@ class SensorInjector:
         """Corrupt what arrived since the last step; publish what is due."""
         sub = self._sub
         assert sub is not None, "setup() was not called"
+        if not self._announced:
+            # Once, for traces: when each model acts (the plot marks the windows).
+            self._announced = True
+            for model in self.config.models:
+                if not is_zero(model):
+                    ctx.publish(ATTACK_CHANNEL, AttackWindow.of(self.config.sensor, model))
         if sub._deliveries:
             # Each reading is judged at the time it was published, not at this step.
             for delivery, payload in zip(sub._deliveries, sub.messages, strict=True):

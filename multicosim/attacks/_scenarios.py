@@ -5,7 +5,7 @@ the sensor's topic and add an injector (built by :func:`add_injector`) between w
 firmware; ArduPilot maps the models onto its firmware's own simulated faults::
 
     simulator = rover.Rover(fidelity="low")
-    attacks.inject(simulator, "gps", [attacks.Jump(offset=(3.0, 0.0, 0.0), start=2.0)])
+    attacks.inject(simulator, "gps", [attacks.Jump(offset=attacks.Local(east=3.0), start=2.0)])
     simulation = simulator.start()
 
 The rover's world publishes the sensor on ``<topic>/raw`` instead (``WorldConfig.sensor_topics``)

@@ -5,15 +5,18 @@ process), validated on construction, and active from ``start`` until ``end`` (si
 seconds; ``end=None``: to the end of the run). Additive models (:class:`Gaussian`,
 :class:`Bias`, :class:`Drift`, :class:`Jump`, and :class:`Stream`, whose offset another
 component computes) change one quantity of the reading (``on``;
-None: the sensor's default, e.g. the GPS position in metres east/north/up); a value is a
-number (the same on every axis) or one number per axis. :class:`Dropout` and :class:`Delay`
-act on whole messages. Random models draw from the injector's seeded generator (``ctx.rng``),
-so a seed gives the same corrupted readings every time.
+None: the sensor's default, e.g. the GPS position); a value is a number (the same on every
+axis), a :class:`Local` for a position's axes by name (``Local(north=4.0)``: 4 m north), or
+one number per axis in the quantity's own order (body axes x, y, z; a plain tuple for a
+position is deprecated: its order, east/north/up, is easy to get wrong). :class:`Dropout`
+and :class:`Delay` act on whole messages. Random models draw from the injector's seeded
+generator (``ctx.rng``), so a seed gives the same corrupted readings every time.
 """
 
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Iterable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any, Protocol, Union
 
@@ -32,6 +35,7 @@ __all__ = [
     "Dropout",
     "Gaussian",
     "Jump",
+    "Local",
     "Model",
     "Stream",
     "Value",
@@ -47,8 +51,34 @@ class Latest(Protocol):
     def latest(self) -> Any: ...
 
 
-# A number for every axis, or one number per axis.
-Value = Union[float, tuple[float, ...]]  # noqa: UP007 - msgspec reads this alias at run time
+class Local(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
+    """A value per axis of a local position, by name: north, east, up (0 where not given).
+
+    The units are the quantity's (m for a GPS position, m/s for a velocity, ...)::
+
+        attacks.Jump(offset=attacks.Local(north=4.0), start=3.0)  # 4 m north from t=3 s
+    """
+
+    north: float = 0.0
+    east: float = 0.0
+    up: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in AXES:
+            _finite(name, getattr(self, name), "a finite number")
+
+
+AXES = ("north", "east", "up")
+"""The axes a :class:`Local` names."""
+
+# A number for every axis, one number per axis, or a local position's axes by name.
+Value = Union[float, tuple[float, ...], Local]  # noqa: UP007 - msgspec reads this at run time
+
+
+class Named(tuple[float, ...]):
+    """Per-axis values that carry their axes' names (from a :class:`Local`)."""
+
+    names: tuple[str, ...] = AXES
 
 
 def _finite(field: str, value: object, allowed: str) -> float:
@@ -60,6 +90,11 @@ def _finite(field: str, value: object, allowed: str) -> float:
 def _values(field: str, value: object, *, non_negative: bool = False) -> tuple[float, ...]:
     sign = ">= 0" if non_negative else ""
     allowed = f"a finite number {sign} or a tuple of them, one per axis".replace("  ", " ")
+    if isinstance(value, Local):
+        named = Named(getattr(value, name) for name in AXES)
+        if non_negative and any(v < 0 for v in named):
+            raise ConfigurationError(field, value, allowed)
+        return named
     items = value if isinstance(value, tuple | list) else (value,)
     if not items:
         raise ConfigurationError(field, value, allowed)
@@ -225,12 +260,14 @@ def is_zero(model: Model) -> bool:
 
 
 def check_models(
-    models: object, quantities: Mapping[str, int], default: str, what: str
+    models: object, quantities: Mapping[str, tuple[str, ...]], default: str, what: str
 ) -> tuple[Model, ...]:
     """``models`` as a tuple; ConfigurationError naming the first one that does not fit.
 
     ``quantities`` maps each quantity an additive model may act on (``on``, else
-    ``default``) to its number of axes; ``what`` names the sensor in errors.
+    ``default``) to its axes' names; ``what`` names the sensor in errors. A plain tuple of
+    values for a local position's axes is accepted with a DeprecationWarning (a
+    :class:`Local` names them).
     """
     if isinstance(models, list):
         models = tuple(models)
@@ -248,8 +285,17 @@ def check_models(
                     model.on,
                     f"a quantity of {what}: one of {tuple(quantities)}",
                 )
+            axes = quantities[quantity]
             for field, values in model.vectors().items():
-                broadcast(f"models[{i}].{field}", values, quantities[quantity], quantity)
+                broadcast(f"models[{i}].{field}", values, axes, quantity)
+                if len(values) > 1 and not isinstance(values, Named) and set(AXES) <= set(axes):
+                    warnings.warn(
+                        f"models[{i}].{field}={tuple(values)}: a tuple gives the axes of "
+                        f"{quantity!r} in the order {axes}, which is easy to get wrong; give "
+                        "attacks.Local(north=..., east=..., up=...) instead",
+                        DeprecationWarning,
+                        stacklevel=4,
+                    )
     return models
 
 
@@ -263,8 +309,19 @@ def subscribe_streams(ctx: Any, models: Sequence[Model], offsets: Iterable[Offse
         each.streams = streams
 
 
-def broadcast(field: str, values: Sequence[float], size: int, quantity: str) -> tuple[float, ...]:
-    """``values`` (one number, or one per axis) as ``size`` numbers; raise if it cannot be."""
+def broadcast(
+    field: str, values: Sequence[float], axes: tuple[str, ...], quantity: str
+) -> tuple[float, ...]:
+    """``values`` (one number, one per axis, or named axes) as one number per axis of
+    ``axes``, in their order; raise if it cannot be."""
+    size = len(axes)
+    if isinstance(values, Named):
+        by_name = dict(zip(values.names, values, strict=True))
+        if set(axes) != set(by_name):
+            raise ConfigurationError(
+                field, Local(**by_name), f"values for the axes of {quantity!r}: {axes}"
+            )
+        return tuple(by_name[axis] for axis in axes)
     if len(values) == size:
         return tuple(values)
     if len(values) == 1:
@@ -281,13 +338,14 @@ class Offsets:
     injector's subscriptions).
     """
 
-    def __init__(self, models: Sequence[Additive], size: int, quantity: str) -> None:
-        self.size = size
+    def __init__(self, models: Sequence[Additive], axes: tuple[str, ...], quantity: str) -> None:
+        self.axes = axes
+        self.size = len(axes)
         self.quantity = quantity
         self.streams: Mapping[str, Latest] = {}
         self._models = list(models)
         self._params = [
-            {k: broadcast(k, v, size, quantity) for k, v in m.vectors().items()} for m in models
+            {k: broadcast(k, v, axes, quantity) for k, v in m.vectors().items()} for m in models
         ]
         self._walk: list[list[float] | None] = [None] * len(models)
         self._walk_time: list[float] = [0.0] * len(models)
@@ -328,7 +386,7 @@ class Offsets:
                 return None
             given = tuple(value) if isinstance(value, list | tuple) else (value,)
             what = f"the value on {model.topic!r}"
-            return [model.scale * v for v in broadcast(what, given, self.size, self.quantity)]
+            return [model.scale * v for v in broadcast(what, given, self.axes, self.quantity)]
         if isinstance(model, Jump):
             offset = p["offset"]
             if not any(offset):

@@ -21,7 +21,7 @@ from hypothesis import strategies as st
 
 from ..core.errors import ConfigurationError
 from ..search.strategies import Range, check_range
-from .models import Bias, Delay, Drift, Dropout, Gaussian, Jump, Model
+from .models import AXES, Bias, Delay, Drift, Dropout, Gaussian, Jump, Local, Model
 from .sensors import sensor
 
 __all__ = [
@@ -48,14 +48,22 @@ def _towards_zero(lo: float, hi: float) -> st.SearchStrategy[float]:
     return st.one_of(st.just(0.0), values) if lo <= 0.0 <= hi else values
 
 
-def offsets(magnitude: Range, *, axes: int = 3) -> st.SearchStrategy[tuple[float, ...]]:
+def offsets(
+    magnitude: Range, *, axes: int | Sequence[str] = 3
+) -> st.SearchStrategy[tuple[float, ...] | Local]:
     """A vector of ``axes`` numbers whose length lies in ``magnitude`` (shrinks to the lowest).
 
     The direction is uniform (on the circle or sphere for 2 or 3 axes); one axis gives a
-    signed number.
+    signed number. ``axes`` given by name (a quantity's) for a local position gives a
+    :class:`~multicosim.attacks.Local`.
     """
+    if not isinstance(axes, int) and sorted(axes) == sorted(AXES):
+        return _vectors(magnitude, 3).map(lambda v: Local(**dict(zip(AXES, v, strict=True))))
+    return _vectors(magnitude, _size(axes if isinstance(axes, int) else len(axes)))
+
+
+def _vectors(magnitude: Range, n: int) -> st.SearchStrategy[tuple[float, ...]]:
     lo, hi = check_range("magnitude", magnitude, low=0.0, high=1e7)
-    n = _size(axes)
     length = _towards_zero(lo, hi)
     if n == 1:
         return st.builds(lambda r, sign: (r * sign,), length, st.sampled_from((1.0, -1.0)))
@@ -94,7 +102,7 @@ def gaussians(
 def biases(
     magnitude: Range = (0.0, 5.0),
     *,
-    axes: int = 3,
+    axes: int | Sequence[str] = 3,
     start: Range = (0.0, 0.0),
     on: str | None = None,
 ) -> st.SearchStrategy[Bias]:
@@ -121,7 +129,7 @@ def drifts(
 def jumps(
     magnitude: Range = (0.0, 20.0),
     *,
-    axes: int = 3,
+    axes: int | Sequence[str] = 3,
     start: Range = (0.0, 30.0),
     ramp: Range = (0.0, 0.0),
     on: str | None = None,
@@ -170,7 +178,7 @@ def attacks(
     standard deviation, an offset's length); shrinks towards the empty list (no attack).
     """
     spec = sensor(vehicle, sensor_name)
-    axes = spec.quantities[spec.default].size
+    axes = spec.quantities[spec.default].axes
     lo, hi = check_range("magnitude", magnitude, low=0.0, high=1e7)
     allowed = ("gaussian", "bias", "drift", "jump", "dropout", "delay")
     chosen = tuple(kinds)

@@ -1,5 +1,14 @@
 """Geographic coordinates around a home position, and attitudes: one place for every vehicle.
 
+**The convention of multicosim's public API.** A local position is metres **north, east,
+up** of home (the vehicle's start), always passed and returned by name (``north=``,
+``east=``, ``up=``; :class:`NorthEast`, ``FlightSample.north``/``east``/``up``), so
+that a wrong order cannot pass silently; a yaw (heading) is in degrees clockwise from north.
+Attack offsets on positions are given the same way (``multicosim.attacks.Local``). Other
+orders appear only where something outside dictates them, and there by name too: MAVLink's
+north-east-down (``FlightSample.x/y/z``, PX4's and ArduPilot's messages), MuJoCo's and
+Foxglove's east-north-up (the worlds' frames, :func:`local_to_geodetic`).
+
 The local frame is PX4's (``map_projection``): the azimuthal equidistant projection on a
 spherical Earth, so a GPS fix built by a world agrees with what PX4 (and our autopilot)
 compute from it. Worlds, autopilots, attack models and tests all project with
@@ -21,8 +30,10 @@ from typing import NamedTuple
 __all__ = [
     "EARTH_RADIUS",
     "GRAVITY",
+    "EastNorthUp",
     "Home",
     "LocalProjection",
+    "NorthEast",
     "Quaternion",
     "geodetic_to_local",
     "local_to_geodetic",
@@ -56,6 +67,13 @@ class Home(NamedTuple):
     alt: float = 488.0
 
 
+class NorthEast(NamedTuple):
+    """A horizontal local position: metres north and east of a reference point."""
+
+    north: float
+    east: float
+
+
 class LocalProjection:
     """Projects latitude/longitude (degrees) to north/east metres around a reference point."""
 
@@ -74,8 +92,8 @@ class LocalProjection:
         """The projection around ``home`` (latitude, longitude[, altitude])."""
         return cls(home[0], home[1])
 
-    def project(self, lat: float, lon: float) -> tuple[float, float]:
-        """North and east (m) of ``lat, lon`` from the reference."""
+    def project(self, lat: float, lon: float) -> NorthEast:
+        """North and east (m) of ``lat, lon`` from the reference, by name (``.north``)."""
         la = math.radians(lat)
         dlon = math.radians(lon) - self._lon0
         sin_lat, cos_lat, cos_dlon = math.sin(la), math.cos(la), math.cos(dlon)
@@ -84,7 +102,7 @@ class LocalProjection:
         k = c / math.sin(c) if abs(c) > 1e-12 else 1.0
         north = k * (self._cos0 * sin_lat - self._sin0 * cos_lat * cos_dlon) * EARTH_RADIUS
         east = k * cos_lat * math.sin(dlon) * EARTH_RADIUS
-        return north, east
+        return NorthEast(north, east)
 
     def reproject(self, north: float, east: float) -> tuple[float, float]:
         """Latitude and longitude (degrees) of the point ``north, east`` (m) from the reference."""
@@ -99,8 +117,16 @@ class LocalProjection:
         return math.degrees(lat), math.degrees(lon)
 
 
+class EastNorthUp(NamedTuple):
+    """A point of a world's east-north-up frame (MuJoCo's, Foxglove's): metres from home."""
+
+    east: float
+    north: float
+    up: float
+
+
 def local_to_geodetic(
-    home: tuple[float, float, float], east: float, north: float, up: float
+    home: tuple[float, float, float], *, east: float, north: float, up: float
 ) -> tuple[float, float, float]:
     """(latitude, longitude, altitude) of the point ``east, north, up`` metres from ``home``."""
     lat, lon = LocalProjection.at(home).reproject(north, east)
@@ -109,10 +135,10 @@ def local_to_geodetic(
 
 def geodetic_to_local(
     home: tuple[float, float, float], latitude: float, longitude: float, altitude: float
-) -> tuple[float, float, float]:
-    """(east, north, up) metres of a geodetic position relative to ``home``."""
+) -> EastNorthUp:
+    """Metres east, north and up (by name) of a geodetic position relative to ``home``."""
     north, east = LocalProjection.at(home).project(latitude, longitude)
-    return east, north, altitude - home[2]
+    return EastNorthUp(east=east, north=north, up=altitude - home[2])
 
 
 def pressure_hpa(altitude_amsl: float) -> float:

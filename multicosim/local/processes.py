@@ -84,6 +84,28 @@ def _resolve_python(args: list[str]) -> list[str]:
     return args
 
 
+def _python_path(given: str | None) -> str:
+    """``PYTHONPATH`` for a component: ``given`` first, then this process's own import path.
+
+    A component imports the user's modules as the code that started it did (a test's
+    rootdir, which pytest put on ``sys.path``; a script's directory), wherever the run was
+    started from. The interpreter's own entries (the standard library, site-packages) are
+    left out: the component's interpreter has its own.
+    """
+    prefixes = {
+        Path(p).resolve()
+        for p in (sys.prefix, sys.base_prefix, sys.exec_prefix, sys.base_exec_prefix)
+    }
+    entries = [given] if given else []
+    for entry in sys.path:
+        path = Path(entry or os.getcwd()).resolve()
+        if any(path.is_relative_to(prefix) for prefix in prefixes) or not path.exists():
+            continue
+        if str(path) not in entries:
+            entries.append(str(path))
+    return os.pathsep.join(entries)
+
+
 _PR_SET_PDEATHSIG = 1  # from <linux/prctl.h>
 
 MIN_MEMORY = 16 << 20
@@ -319,7 +341,11 @@ def start_process(
     handle = ProcessHandle(
         name,
         _resolve_python(args),
-        env={**environment.component_env(name), **env},
+        env={
+            **environment.component_env(name),
+            **env,
+            "PYTHONPATH": _python_path(env.get("PYTHONPATH", os.environ.get("PYTHONPATH"))),
+        },
         cwd=cwd,
         log_path=_log_path(environment, name),
         memory=None if memory is None else memory_bytes(memory),
@@ -346,6 +372,11 @@ class ProcessComponent:
     built with multicosim do so); ``ready="started"`` is for arbitrary commands. ``memory``
     caps its address space (``RLIMIT_AS``; bytes, or ``"512m"``, ``"2g"``; None: no cap):
     past it an allocation fails, and the error says it ran out of memory.
+
+    A Python program imports modules as the code that started the simulation does: the
+    directories on its ``sys.path`` (a test's rootdir, a script's directory) are on the
+    process's ``PYTHONPATH``, after any ``PYTHONPATH`` in ``env``, wherever pytest or the
+    script was started from.
     """
 
     command: str | Sequence[str]

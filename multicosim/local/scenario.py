@@ -6,6 +6,7 @@ from pathlib import Path
 from typing import Self, TypeVar
 
 from ..core.interfaces import Node, NodeId
+from .simulation import started
 from .simulators import ProcessSimulation
 
 __all__ = ["ScenarioSimulation"]
@@ -22,6 +23,7 @@ class ScenarioSimulation:
 
     def __init__(self, simulation: ProcessSimulation) -> None:
         self.simulation = simulation
+        started(self)
 
     @property
     def time(self) -> float:

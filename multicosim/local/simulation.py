@@ -10,11 +10,30 @@ from typing import Any, TypeVar
 from ..core.errors import ConfigurationError
 from ..core.interfaces import Node, NodeId
 
-__all__ = ["NodeSet", "stop_all"]
+__all__ = ["NodeSet", "add_start_observer", "started", "stop_all"]
 
 log = logging.getLogger(__name__)
 
 NodeT = TypeVar("NodeT", bound=Node)
+
+_start_observers: list[Callable[[object], None]] = []
+
+
+def add_start_observer(observer: Callable[[object], None]) -> Callable[[], None]:
+    """Call ``observer`` with every simulation as it starts; return what removes it.
+
+    A local simulation is announced before its components start, a scenario's (a
+    ``ScenarioSimulation``) again once it wraps it: a trace that records what a search
+    simulates (``multicosim.trace``) listens here.
+    """
+    _start_observers.append(observer)
+    return lambda: _start_observers.remove(observer)
+
+
+def started(simulation: object) -> None:
+    """Announce ``simulation`` to the start observers."""
+    for observer in list(_start_observers):
+        observer(simulation)
 
 
 def stop_all(steps: list[tuple[str, Callable[[], None]]], what: str) -> None:

@@ -15,7 +15,7 @@ from ..core.errors import ConfigurationError, MulticosimError
 from ..core.interfaces import Component, Node, NodeId, new_simulator_token
 from .environment import LocalEnvironment
 from .rundirs import new_run_dir, remove_tree
-from .simulation import NodeSet
+from .simulation import NodeSet, started
 from .waits import DEFAULT_STEP_TIMEOUT, check_timeout
 
 __all__ = [
@@ -222,6 +222,7 @@ class ProcessSimulator(LocalSimulatorBase[LocalEnvironment]):
         )
         simulation = ProcessSimulation(self._token, environment, self.run_dir is not None)
         simulation._add_cleanup("the clock and sockets", simulation._finish)
+        started(simulation)
         self._start_components(simulation, environment)
         return simulation
 

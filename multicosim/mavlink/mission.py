@@ -239,7 +239,8 @@ class Configuration(msgspec.Struct, frozen=True):
 class FlightSample(msgspec.Struct, frozen=True, kw_only=True):
     """One trajectory sample as the ground station sees it, plus the world's ground truth.
 
-    ``lat``/``lon`` (deg), ``alt`` (m above home) and ``x``/``y``/``z`` (local NED, m) are the
+    ``lat``/``lon`` (deg), ``alt`` (m above home) and ``north``/``east``/``up`` (m from
+    home; ``x``/``y``/``z`` are the same in MAVLink's north-east-down) are the
     autopilot's estimate as it last reported it; ``true_*`` are the world's truth (they
     differ when sensors lie). The ground station takes one sample per period (20 Hz at
     medium fidelity and above, 10 Hz at low).
@@ -282,6 +283,23 @@ class Collision(msgspec.Struct, frozen=True, kw_only=True):
     time: float
     obstacle: int
     speed: float
+
+    # The public convention (multicosim.core.geo): north, east, up by name. x/y/z stay
+    # MAVLink's north-east-down, as LOCAL_POSITION_NED reports them.
+    @property
+    def north(self) -> float:
+        """The estimated position, metres north of home (``x``)."""
+        return self.x
+
+    @property
+    def east(self) -> float:
+        """The estimated position, metres east of home (``y``)."""
+        return self.y
+
+    @property
+    def up(self) -> float:
+        """The estimated position, metres above home (``-z``)."""
+        return -self.z
 
 
 class WaypointReached(msgspec.Struct, frozen=True, kw_only=True):

@@ -152,7 +152,7 @@ class Physics:
 
     def geodetic(self, east: float, north: float, up: float) -> tuple[float, float, float]:
         """(latitude, longitude, altitude) of a local ENU point, from the configured home."""
-        return local_to_geodetic(self.config.home, east, north, up)
+        return local_to_geodetic(self.config.home, east=east, north=north, up=up)
 
 
 def load_model(path: str | os.PathLike[str]) -> Any:

@@ -123,7 +123,7 @@ class KinematicWorld:
             accel = (rng.normal(0.0, noise.accelerometer, 3) + accel).tolist()
             gyro = (rng.normal(0.0, noise.gyro, 3) + gyro).tolist()
             speed += float(rng.normal(0.0, noise.wheel_speed))
-        lat, lon, alt = local_to_geodetic(self._home, x, y, z)
+        lat, lon, alt = local_to_geodetic(self._home, east=x, north=y, up=z)
         publish = ctx.publish
         publish(
             topics["position"],

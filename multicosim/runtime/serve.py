@@ -11,6 +11,7 @@ components outside the simulation's process.
 
 from __future__ import annotations
 
+import functools
 import importlib
 import inspect
 import logging
@@ -56,7 +57,17 @@ log = logging.getLogger(__name__)
 
 
 class Firmware(Generic[MsgT, ReplyT]):
-    """A firmware: the handler, the message type it accepts and its step period."""
+    """A firmware: the handler, the message type it accepts and its step period.
+
+    It wears its handler's name, docstring, module and signature (``help()``,
+    ``inspect.signature`` and documentation tools show the handler's), as
+    ``functools.wraps`` makes a wrapper do.
+    """
+
+    # Set by functools.update_wrapper from the handler.
+    __name__: str
+    __qualname__: str
+    __wrapped__: Callable[[MsgT, FirmwareContext], ReplyT]
 
     def __init__(
         self,
@@ -70,6 +81,7 @@ class Firmware(Generic[MsgT, ReplyT]):
         self.period = period
         self.period_ns = to_ns(period)
         self.name = name
+        functools.update_wrapper(self, handler)
 
     def __call__(self, msg: MsgT, ctx: FirmwareContext) -> ReplyT:
         return self.handler(msg, ctx)

@@ -104,11 +104,19 @@ class Evaluation:
         return self.worst_time if first is None else first
 
     def explain(self) -> str:
-        """A one-paragraph account: verdict, robustness, worst time and values there."""
-        verdict = "holds" if self.satisfied else "is violated"
+        """A one-paragraph account: verdict, robustness, worst time and values there.
+
+        A violation names both instants: where it was first violated and where the
+        robustness is at its worst (they differ when a trajectory stays out for a while).
+        """
         values = ", ".join(f"{k}={v:.6g}" for k, v in self.values.items())
+        first = self.first_violation
+        if first is None:
+            verdict = "holds: robustness"
+        else:
+            verdict = f"is violated: first violated at t={first:.6g} s; worst robustness"
         text = (
-            f"requirement {self.formula!r} {verdict}: robustness {self.robustness:.6g} "
+            f"requirement {self.formula!r} {verdict} {self.robustness:.6g} "
             f"at t={self.worst_time:.6g} s ({values})"
         )
         if self.predicate:

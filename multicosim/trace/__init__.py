@@ -33,6 +33,7 @@ from __future__ import annotations
 from ..core.clock import find_scheduler
 from ._cli import plot_command
 from ._convert import (
+    ATTACK_CHANNEL,
     LOCATION_CHANNEL,
     OBSTACLES_CHANNEL,
     PATH_CHANNEL,
@@ -74,6 +75,7 @@ from ._session import TestTrace, activate, active, note_evaluation
 from ._tlog import write_tlog
 
 __all__ = [
+    "ATTACK_CHANNEL",
     "DIALECT",
     "GEOJSON",
     "LOCATION_CHANNEL",

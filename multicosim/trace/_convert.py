@@ -35,6 +35,8 @@ TRAJECTORY_CHANNEL = "mcs/trajectory"
 PLAN_CHANNEL = "mcs/plan"
 OBSTACLES_CHANNEL = "mcs/obstacles"
 ROBUSTNESS_CHANNEL = "mcs/robustness"
+# An attack's window: {"sensor", "model", "start", "end"} (s; end None: to the end of the run).
+ATTACK_CHANNEL = "mcs/attack"
 
 
 @dataclasses.dataclass(frozen=True)

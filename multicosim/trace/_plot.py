@@ -3,7 +3,8 @@
 The path panel draws east to the right and north up, from the ``mcs/path/*`` channels
 scenarios derive (each labelled by what it is: ``truth``, ``estimate``, ...) and the plan
 (``mcs/plan``). The signal panel plots the signals the requirement reads; the robustness
-panel the deciding predicate's margin. Both mark the first violation and the worst time.
+panel the deciding predicate's margin. Both mark the first violation and the worst time,
+and shade the window of each attack an injector ran (``mcs/attack``).
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from ..core.deps import require
 from ..core.errors import TraceError
 from ..core.files import replacing
 from ._convert import (
+    ATTACK_CHANNEL,
     OBSTACLES_CHANNEL,
     PATH_CHANNEL,
     PLAN_CHANNEL,
@@ -77,6 +79,23 @@ def _mark(ax: Axes, first: float | None, worst: float | None) -> None:
         ax.axvline(worst, color="tab:red", linestyle=":", label=f"worst time ({worst:.3g} s)")
 
 
+def _attacks(ax: Axes, windows: list[TraceMessage], until: float | None) -> None:
+    """Shade each attack's window (an injector's models, ``mcs/attack``)."""
+    for message in windows:
+        w = message.data
+        if not isinstance(w, dict) or _float(w.get("start")) is None:
+            continue
+        start = float(w["start"])
+        end = _float(w.get("end"))
+        end = end if end is not None else max(until or start, start)
+        label = f"attack: {w.get('model')} on {w.get('sensor')}"
+        gid = f"attack/{w.get('sensor')}/{w.get('model')}"
+        if end > start:
+            ax.axvspan(start, end, color="tab:orange", alpha=0.15, label=label).set_gid(gid)
+        else:  # nothing after its start was recorded: mark where it begins
+            ax.axvline(start, color="tab:orange", linewidth=1.0, label=label).set_gid(gid)
+
+
 def figure(data: TraceData, title: str = "") -> Figure:
     """The plot of a trace read back (see the module docstring)."""
     require("matplotlib", "plot")
@@ -92,6 +111,9 @@ def figure(data: TraceData, title: str = "") -> Figure:
         )
     first = _float(info.get("first_violation"))
     worst = _float(info.get("worst_time"))
+    windows = data.topic(ATTACK_CHANNEL)
+    ends = [m.time for m in (*trajectory, *robustness)]
+    until = max(ends) if ends else None
 
     fig = Figure(figsize=(8, 12))
     ax_path, ax_signals, ax_rob = fig.subplots(3, 1, height_ratios=(3, 2, 2))
@@ -182,6 +204,7 @@ def figure(data: TraceData, title: str = "") -> Figure:
             cols = _columns(data.topic(topic), "up")
             ax_signals.plot(cols["time"], cols["up"], label=topic.removeprefix(PATH_CHANNEL + "/"))
     _mark(ax_signals, first, worst)
+    _attacks(ax_signals, windows, until)
     if ax_signals.has_data():
         ax_signals.legend(loc="best", fontsize=8)
     ax_signals.set_xlabel("time (s)")
@@ -201,6 +224,7 @@ def figure(data: TraceData, title: str = "") -> Figure:
         if rho is not None:
             ax_rob.axhline(rho, color="tab:red", linestyle="--", linewidth=0.8, label="robustness")
         _mark(ax_rob, first, worst)
+        _attacks(ax_rob, windows, until)
         ax_rob.set_title(f"robustness of {head.get('formula')}: {_text(rho)}")
         ax_rob.legend(loc="best", fontsize=8)
         ax_rob.set_xlabel("time (s)")

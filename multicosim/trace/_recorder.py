@@ -92,6 +92,8 @@ class Recorder:
     ) -> None:
         self.types = dict(types or {})
         self.converters = list(converters)
+        # What was given here, before a simulation's trace options add to it.
+        self._given = (dict(self.types), list(self.converters))
         self.metadata: dict[str, object] = dict(metadata or {})
         self.options = TraceOptions()
         self.deliveries: list[Delivery] = []
@@ -108,17 +110,26 @@ class Recorder:
         if self._scheduler is not None:
             raise TraceError("this recorder is already attached to a simulation")
         scheduler = find_scheduler(simulation)
-        options = trace_options(simulation)
-        self.options = options
-        self.types = {**options.types, **self.types}
-        self.converters = [*options.converters, *self.converters]
-        if options.plan and not any(e.channel == PLAN_CHANNEL for e in self._extras):
-            self.add_plan(options.plan)
+        self.use_options(simulation)
         # The bound method itself is the tap: no Python frame of ours runs per message.
         self._tap = self.deliveries.append
         scheduler.taps.append(self._tap)
         self._scheduler = scheduler
         return self
+
+    def use_options(self, simulation: object) -> None:
+        """Convert and lay out what is recorded as ``simulation``'s trace options say.
+
+        ``attach`` does it; a scenario's simulation wrapping the one recorded (its channels,
+        converters, plan and plots) does it again.
+        """
+        options = trace_options(simulation)
+        given_types, given_converters = self._given
+        self.options = options
+        self.types = {**options.types, **given_types}
+        self.converters = [*options.converters, *given_converters]
+        if options.plan and not any(e.channel == PLAN_CHANNEL for e in self._extras):
+            self.add_plan(options.plan)
 
     def detach(self) -> None:
         """Stop recording (the recorded messages stay); idempotent."""

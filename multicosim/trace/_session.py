@@ -10,6 +10,8 @@ from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from ..core.errors import MulticosimError
+from ..local.simulation import add_start_observer
 from ._convert import TRAJECTORY_CHANNEL, Converter
 from ._recorder import Recorder
 
@@ -36,6 +38,9 @@ class TestTrace:
     (``--mcs-keep-traces=none``) it only carries the test's metadata (fidelity, seed) for
     fresh simulations. :meth:`begin_example` forgets what an earlier Hypothesis example
     recorded, so what is saved is the last (for a failing test: the final, minimal) example.
+    With ``record_started`` (a search's trace of one simulation) every simulation started
+    while it is active is recorded, however it was started: a scenario's (PX4's, the
+    rover's) with its own channels, converters and plot, as in a failing test's trace.
     """
 
     __test__ = False  # not a pytest test class, despite the name
@@ -47,9 +52,15 @@ class TestTrace:
         types: Mapping[str, Any] | None = None,
         converters: Sequence[Converter] = (),
         record: bool = True,
+        record_started: bool = False,
     ) -> None:
         self.metadata: dict[str, object] = dict(metadata or {})
         self.record = record
+        self.record_started = record_started
+        # The recorder of each simulation recorded, by the simulation's id.
+        self._sources: dict[int, Recorder] = {}
+        # The scenario simulation that wraps a recorded one, by the recorder's id.
+        self._wrapped: dict[int, object] = {}
         self.types = dict(types or {})
         self.converters = list(converters)
         self.recorders: list[Recorder] = []
@@ -70,6 +81,9 @@ class TestTrace:
         """
         if not self.record:
             return None
+        known = self._recorded(simulation)
+        if known is not None:
+            return known  # already recorded since it started (``record_started``)
         recorder = Recorder(
             types={**self.types, **(types or {})},
             converters=[*self.converters, *converters],
@@ -77,7 +91,50 @@ class TestTrace:
         recorder.attach(simulation)
         with self._lock:
             self.recorders.append(recorder)
+            self._sources[id(simulation)] = recorder
         return recorder
+
+    def adopt(self, simulation: object) -> None:
+        """Record ``simulation``, which just started (``record_started``).
+
+        A scenario's simulation wraps a local one already recorded: its recording goes on
+        as the scenario's (what was recorded stays), with the scenario's trace options,
+        which are read when the scenario's simulation is complete (at :meth:`save`).
+        """
+        if self.record:
+            self.attach(simulation)
+
+    def _recorded(self, simulation: object) -> Recorder | None:
+        """The recorder of ``simulation`` or of the simulation it wraps, if either has one.
+
+        A wrapper's trace options (a scenario's) are the ones its recording is saved with.
+        """
+        with self._lock:
+            found = self._sources.get(id(simulation))
+            if found is not None:
+                return found
+            inner = getattr(simulation, "simulation", None)
+            found = self._sources.get(id(inner)) if inner is not None else None
+            if found is not None:
+                self._sources[id(simulation)] = found
+                self._wrapped[id(found)] = simulation
+            return found
+
+    def take(self, other: TestTrace) -> None:
+        """Hold what ``other`` recorded instead of what this one did (a search's run).
+
+        A falsification inside a test hands over the last violating run, so that the
+        test's trace is that run's, as a failing test's is.
+        """
+        if not self.record:
+            return
+        other.detach()
+        with self._lock:
+            self.detach()
+            self.recorders = list(other.recorders)
+            self._sources = dict(other._sources)
+            self._wrapped = dict(other._wrapped)
+            self._evaluation = other._evaluation
 
     def begin_example(self) -> None:
         """A new Hypothesis example starts: drop the recordings of the previous one."""
@@ -85,6 +142,8 @@ class TestTrace:
             for recorder in self.recorders:
                 recorder.detach()
             self.recorders = []
+            self._sources = {}
+            self._wrapped = {}
             self._evaluation = None
             self.example += 1
 
@@ -120,6 +179,9 @@ class TestTrace:
         written: list[Path] = []
         plots: list[Path] = []
         for index, recorder in enumerate(recorders):
+            wrapper = self._wrapped.get(id(recorder))
+            if wrapper is not None:
+                recorder.use_options(wrapper)
             recorder.metadata.update(self.metadata)
             if self._evaluation is not None and index == len(recorders) - 1:
                 evaluation, signals = self._evaluation
@@ -138,6 +200,17 @@ class TestTrace:
                 except Exception as exc:  # a plot is a diagnosis aid: keep the trace anyway
                     log.warning("could not plot %s: %s", path, exc)
         return written + plots
+
+
+def _record_started(simulation: object) -> None:
+    current = _current.get()
+    if current is not None and current.record_started:
+        # A simulation without a simulated clock has nothing to record.
+        with contextlib.suppress(MulticosimError):
+            current.adopt(simulation)
+
+
+add_start_observer(_record_started)
 
 
 def active() -> TestTrace | None:

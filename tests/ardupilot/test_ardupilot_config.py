@@ -250,8 +250,8 @@ def test_gps_models_become_glitch_offsets_dropout_and_lag() -> None:
     config = FaultsConfig(
         sensor="position",
         models=(
-            attacks.Jump(offset=(0.0, 10.0, 0.0), start=10.0, ramp=2.0),
-            attacks.Bias(offset=(3.0, 0.0, -1.0), start=20.0, end=30.0),
+            attacks.Jump(offset=attacks.Local(north=10.0), start=10.0, ramp=2.0),
+            attacks.Bias(offset=attacks.Local(east=3.0, up=-1.0), start=20.0, end=30.0),
             attacks.Dropout(start=40.0, end=50.0),
             attacks.Delay(delay=0.25, start=60.0),
         ),

@@ -20,6 +20,7 @@ import multicosim.ardupilot._vehicles  # noqa: F401
 TEST_FILE = """
 import pytest
 import multicosim.ardupilot as ardupilot
+import multicosim.attacks as attacks
 from multicosim.ardupilot.faults import FaultsComponent
 
 @pytest.mark.fidelity("low", "medium")
@@ -30,7 +31,7 @@ def test_copter(ardupilot_copter_simulation):
 
 @pytest.mark.fidelity("medium")
 def test_rover_with_gps_noise(ardupilot_rover_simulator, gps_noise):
-    faults = gps_noise(spoof=(0.0, 5.0, 0.0), start=1.0)
+    faults = gps_noise(spoof=attacks.Local(north=5.0), start=1.0)
     assert isinstance(faults, FaultsComponent)
     assert faults.config.sensor == "gps"
     ardupilot_rover_simulator.start().advance(0.25)
@@ -60,10 +61,13 @@ def test_the_directory_comes_from_the_option_its_ini_twin_or_the_environment(
     else:
         monkeypatch.setenv("MCS_ARDUPILOT_DIR", str(directory))
     result = pytester.runpytest(*args)
-    # Low fidelity is skipped (ArduPilot flies MuJoCo); medium runs on the stand-in.
-    result.assert_outcomes(passed=2, skipped=2)
+    # Low fidelity is deselected (ArduPilot flies MuJoCo); medium runs on the stand-in.
+    result.assert_outcomes(passed=2, deselected=2)
     result.stdout.fnmatch_lines(
-        [f"multicosim ardupilot: real ArduPilot SITL from {directory}", "*no low fidelity*"]
+        [
+            f"multicosim ardupilot: real ArduPilot SITL from {directory}",
+            "multicosim: 2 deselected at fidelity levels they never run at",
+        ]
     )
 
 

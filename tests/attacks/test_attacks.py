@@ -132,7 +132,10 @@ def test_zero_models_pass_the_same_objects_in_the_same_instant() -> None:
 
 
 def test_gaussian_noise_has_its_mean_and_deviation() -> None:
-    received = run([attacks.Gaussian(std=(0.5, 2.0, 0.0), mean=(1.0, 0.0, 0.0))], duration=60.0)
+    received = run(
+        [attacks.Gaussian(std=attacks.Local(east=0.5, north=2.0), mean=attacks.Local(east=1.0))],
+        duration=60.0,
+    )
     dx = [m.x - 1.0 for _, m in received]
     dy = [m.y - 2.0 for _, m in received]
     assert statistics.mean(dx) == pytest.approx(1.0, abs=0.1)
@@ -148,9 +151,9 @@ def test_bias_drift_and_jump_combine_with_their_windows() -> None:
     received = dict(
         run(
             [
-                attacks.Bias(offset=(0.5, 0.0, 0.0), start=0.5, end=1.0),
-                attacks.Jump(offset=(0.0, 4.0, 0.0), start=1.0, ramp=0.4),
-                attacks.Drift(rate=(0.0, 0.0, 1.0), start=1.5),
+                attacks.Bias(offset=attacks.Local(east=0.5), start=0.5, end=1.0),
+                attacks.Jump(offset=attacks.Local(north=4.0), start=1.0, ramp=0.4),
+                attacks.Drift(rate=attacks.Local(up=1.0), start=1.5),
             ]
         )
     )
@@ -292,6 +295,22 @@ def _config(**changes: Any) -> attacks.InjectorConfig:
     return attacks.InjectorConfig(**{**base, **changes})
 
 
+def test_a_position_offset_is_given_by_name_and_a_tuple_is_deprecated() -> None:
+    by_name = _config(models=(attacks.Jump(offset=attacks.Local(north=4.0, up=-1.0)),))
+    with pytest.warns(DeprecationWarning, match=r"order \('east', 'north', 'up'\)"):
+        by_order = _config(models=(attacks.Jump(offset=(0.0, 4.0, -1.0)),))
+    # The same reading either way: 4 m north, 1 m down (the rover's x/y/z are east/north/up).
+    received = dict(run(list(by_name.models)))
+    assert (received[0.2].x, received[0.2].y, received[0.2].z) == (1.0, 6.0, -0.75)
+    with pytest.warns(DeprecationWarning, match="attacks.Local"):
+        assert dict(run(list(by_order.models))) == received
+    # A Local travels to an injector process as it is.
+    again = msgspec.json.decode(msgspec.json.encode(by_name), type=attacks.InjectorConfig)
+    assert again == by_name
+    with pytest.raises(mcs.ConfigurationError, match="north"):
+        attacks.Local(north=math.inf)
+
+
 @pytest.mark.parametrize(
     ("changes", "field"),
     [
@@ -307,6 +326,13 @@ def _config(**changes: Any) -> attacks.InjectorConfig:
         ({"models": ("noise",)}, "models[0]"),
         (
             {"sensor": "magnetometer", "models": (attacks.Jump(offset=(0.1, 0.0, 0.0)),)},
+            "models[0].offset",
+        ),
+        (  # a body field has no north: names keep a wrong frame from passing silently
+            {
+                "sensor": "magnetometer",
+                "models": (attacks.Bias(offset=attacks.Local(north=1e-6), on="field"),),
+            },
             "models[0].offset",
         ),
     ],
@@ -396,6 +422,7 @@ def test_gps_noise_fixture_needs_one_scenario_simulator(pytester: pytest.Pyteste
         """
         import pytest
         import multicosim as mcs
+        import multicosim.attacks as attacks
 
         def test_neither(gps_noise):
             with pytest.raises(mcs.ConfigurationError, match="exactly one"):
@@ -406,7 +433,9 @@ def test_gps_noise_fixture_needs_one_scenario_simulator(pytester: pytest.Pyteste
                 gps_noise(std=1.0)
 
         def test_rover(rover_simulator, gps_noise):
-            injector = gps_noise(std=1.0, spoof=(1.0, 0.0, 0.0), start=2.0, end=5.0, delay=0.1)
+            injector = gps_noise(
+                std=1.0, spoof=attacks.Local(east=1.0), start=2.0, end=5.0, delay=0.1
+            )
             assert [type(m).__name__ for m in injector.config.models] == [
                 "Gaussian", "Jump", "Delay"
             ]
@@ -427,7 +456,7 @@ def test_rover_trace_shows_truth_and_sensed_track(tmp_path: Any, fidelity: str) 
     from multicosim.trace import Recorder, read_trace
 
     simulator = rover.Rover(fidelity=fidelity)  # type: ignore[arg-type]
-    attacks.inject(simulator, "gps", [attacks.Jump(offset=(0.0, 3.0, 0.0), start=1.0)])
+    attacks.inject(simulator, "gps", [attacks.Jump(offset=attacks.Local(north=3.0), start=1.0)])
     with simulator.start() as simulation, Recorder().attach(simulation) as recorder:
         simulation.controller.send(rover.Mission(speed=2.0, wait=0.5, distance=2.0))
     trace = read_trace(recorder.save(tmp_path / "rover.mcap", fidelity=fidelity))

@@ -13,7 +13,9 @@ MISSION = rover.Mission(speed=3.0, wait=1.0, distance=5.0, final_distance=5.0)
 def _run(backend: str) -> rover.Trajectory:
     simulator = rover.Rover(fidelity="low", backend=backend)  # type: ignore[arg-type]
     component = attacks.inject(
-        simulator, "gps", [attacks.Gaussian(std=0.2), attacks.Jump(offset=(2.0, 0.0, 0.0), start=2)]
+        simulator,
+        "gps",
+        [attacks.Gaussian(std=0.2), attacks.Jump(offset=attacks.Local(east=2.0), start=2)],
     )
     assert component.config.source == "rover/position/raw"
     with simulator.start() as simulation:

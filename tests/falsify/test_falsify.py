@@ -91,7 +91,12 @@ def test_a_requirement_that_holds_spends_the_budget() -> None:
     assert result.lowest is not None
     assert result.lowest[0] >= 0.5
     assert "no confirmed violation" in result.summary()
+    assert "25 simulations and 0 confirmations at medium, in " in result.summary()
     result.assert_holds()
+    # One level: nothing is confirmed, so the summary counts no confirmations.
+    alone = falsify(run, "always (x >= -0.5)", SPACE, optimizer="random", budget=5, levels="low")
+    assert "budget 5): 5 simulations, in " in alone.summary()
+    assert "confirmations" not in alone.summary()
 
 
 def test_the_counterexample_leaves_a_trace_per_level(tmp_path: Path) -> None:
@@ -116,6 +121,8 @@ def test_the_counterexample_leaves_a_trace_per_level(tmp_path: Path) -> None:
         assert {"state", "cmd", "mcs/trajectory", "mcs/robustness"} <= set(trace.channels)
     assert not (tmp_path / "sample-00001").exists()  # the first sample held
     summary = result.summary()
+    # Two search samples, the second confirmed at medium and high.
+    assert "2 simulations and 2 confirmations at medium, high, in " in summary
     assert "high: FAILS" in summary
     assert "lowest fidelity that falsifies: low" in summary
     with pytest.raises(AssertionError, match="counterexample"):

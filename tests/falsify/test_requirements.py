@@ -38,6 +38,22 @@ def test_always_robustness_is_the_smallest_margin() -> None:
     assert [v for _, v in evaluation.series] == pytest.approx([1.0, -0.5, 2.0, 0.25])
 
 
+def test_a_violation_names_its_first_and_its_worst_instant() -> None:
+    # Out below 0 from t=1 on, furthest out at t=3: the message names both instants.
+    evaluation = Requirement("always (alt >= 0)").evaluate(
+        {"alt": [1.0, -1.0, -0.5, -3.0]}, times=TIMES
+    )
+    assert evaluation.first_violation == 1.0
+    assert evaluation.worst_time == 3.0
+    text = evaluation.explain()
+    assert "is violated: first violated at t=1 s; worst robustness -3 at t=3 s (alt=-3)" in text
+    with pytest.raises(RequirementViolation, match="first violated at t=1 s; worst robustness"):
+        Requirement("always (alt >= 0)").check({"alt": [1.0, -1.0, -0.5, -3.0]}, times=TIMES)
+    holds = Requirement("always (alt >= -5)").evaluate({"alt": [1.0, -1.0]}, times=TIMES[:2])
+    assert "holds: robustness 4 at t=1 s" in holds.explain()
+    assert "violated" not in holds.explain()
+
+
 def test_eventually_robustness_is_the_best_margin() -> None:
     evaluation = Requirement("eventually (alt >= 3)").evaluate(
         {"alt": [1.0, 2.5, 2.0, 0.0]}, times=TIMES

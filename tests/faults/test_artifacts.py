@@ -72,7 +72,7 @@ def test_full_artifacts_disk_keeps_the_report_intact(
     result.stdout.fnmatch_lines(
         [
             "verdict: AssertionError: the rover drove forwards*",
-            "replay: pytest *test_inner.py::test_rover_drives_backwards*",
+            "replay: * -m pytest *test_inner.py::test_rover_drives_backwards*",
             "trace: not saved (TraceError: could not write the trace *No space left on device*)",
         ]
     )

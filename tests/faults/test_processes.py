@@ -226,7 +226,7 @@ def test_crash_under_pytest_is_the_reports_verdict(pytester: pytest.Pytester) ->
         [
             "verdict: multicosim.NodeCrashedError: component 'faulty' crashed (it raised "
             "RuntimeError: asked to raise at t=0.2) during its step at t=0.2 s (exit code 1)",
-            "replay: pytest *test_inner.py::test_drive*",
+            "replay: * -m pytest *test_inner.py::test_drive*",
             "trace: *trace.mcap*",
             "--- faulty: last output (full log: *faulty.log) ---",
             "*RuntimeError: asked to raise at t=0.2",

@@ -104,15 +104,15 @@ def test_unknown_sensor_in_remapping_is_rejected() -> None:
 
 def test_geodetic_projection() -> None:
     home = DEFAULT_HOME
-    assert local_to_geodetic(home, 0.0, 0.0, 0.0) == home
-    lat, lon, alt = local_to_geodetic(home, 0.0, 1000.0, 2.0)
+    assert local_to_geodetic(home, east=0.0, north=0.0, up=0.0) == home
+    lat, lon, alt = local_to_geodetic(home, east=0.0, north=1000.0, up=2.0)
     assert lat > home[0]
     assert lon == pytest.approx(home[1], abs=1e-12)
     assert (lat - home[0]) * math.pi / 180 * 6_371_000 == pytest.approx(1000.0, rel=1e-6)
     assert alt == pytest.approx(490.0)
     for east, north in [(123.0, -45.0), (-2000.0, 3000.0)]:
-        back = geodetic_to_local(home, *local_to_geodetic(home, east, north, 1.0))
-        assert back == pytest.approx((east, north, 1.0), abs=1e-6)
+        back = geodetic_to_local(home, *local_to_geodetic(home, east=east, north=north, up=1.0))
+        assert (back.east, back.north, back.up) == pytest.approx((east, north, 1.0), abs=1e-6)
 
 
 # -- physics --------------------------------------------------------------------------------

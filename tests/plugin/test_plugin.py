@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import shlex
 import signal
 import subprocess
@@ -16,6 +17,9 @@ from plugin_helpers import write_ini
 
 from multicosim.core.fidelity import BACKENDS, FIDELITIES
 from pytest_multicosim.options import KEEP_TRACES
+
+PYTEST = f"{shlex.quote(sys.executable)} -m pytest"
+"""How a replay command names pytest: through the interpreter that ran the session."""
 
 # -- options and their ini twins ------------------------------------------------------------
 
@@ -132,6 +136,8 @@ BAD_VALUES = [
     ("mcs_fidelity", "ultra", "allowed: low, medium, high (or a comma list of them)"),
     ("mcs_fidelity", "low,meduim", "allowed: low, medium, high (or a comma list of them)"),
     ("mcs_fidelity", ",", "allowed: low, medium, high (or a comma list of them)"),
+    ("mcs_fidelity", "low,,medium", "allowed: low, medium, high (or a comma list of them)"),
+    ("mcs_fidelity", "low,", "allowed: low, medium, high (or a comma list of them)"),
     ("mcs_backend", "kubernetes", "allowed: process, docker"),
     ("mcs_seed", "-1", "allowed: a non-negative integer"),
     ("mcs_seed", "lucky", "allowed: a non-negative integer"),
@@ -154,9 +160,10 @@ def test_bad_value_is_a_usage_error(
         source = f"{name} (in pytest.ini)"
     assert result.ret == pytest.ExitCode.USAGE_ERROR
     result.stderr.fnmatch_lines([f"ERROR: {source}: {value.strip()!r} *; {allowed}"])
-    if name == "mcs_fidelity" and value != ",":
-        bad = value.split(",")[-1]
-        assert f"'{bad}'" in result.stderr.str()  # the misspelt level is named
+    if name == "mcs_fidelity":
+        bad = next(item for item in value.split(",") if item not in FIDELITIES)
+        # The misspelt level, or the empty item, is named.
+        assert (f"'{bad}'" if bad else "an empty item") in result.stderr.str()
     assert "Traceback" not in result.stderr.str() + result.stdout.str()
 
 
@@ -219,51 +226,67 @@ def test_unaware(request):
 """
 
 
-def test_marker_skips_unlisted_levels_with_the_reason(pytester: pytest.Pytester) -> None:
+def test_marker_deselects_unlisted_levels(pytester: pytest.Pytester) -> None:
     pytester.makepyfile(test_marked=MARKED)
     result = pytester.runpytest("--mcs-fidelity=low", "-v", "-rs")
-    result.assert_outcomes(passed=4, skipped=1)
+    # A level a test never runs at is no skip: a skip means something the test needed was
+    # missing.
+    result.assert_outcomes(passed=4, deselected=1)
     result.stdout.fnmatch_lines_random(
         [
-            "*test_detailed?low? SKIPPED*",
+            "*collected 5 items / 1 deselected / 4 selected",
+            "multicosim: 1 deselected at fidelity levels they never run at",
             "*test_cheap?low? PASSED*",
             "*test_aware?low? PASSED*",
             "*test_through_a_fixture?low? PASSED*",
             "*test_unaware PASSED*",
-            "SKIPPED [[]1[]] *: fidelity 'low' not in the test's levels (medium, high)",
         ]
     )
+    assert "test_detailed" not in result.stdout.str()
+    assert "SKIPPED" not in result.stdout.str()
 
 
 def test_comma_list_runs_once_per_level_with_ids(pytester: pytest.Pytester) -> None:
     pytester.makepyfile(test_marked=MARKED)
     result = pytester.runpytest("--mcs-fidelity=low,medium,high", "-v", "-rs")
-    # detailed: 2 run + 1 skipped; cheap: 1 + 2 skipped; aware and fixture: 3 each; unaware: 1.
-    result.assert_outcomes(passed=10, skipped=3)
+    # detailed: 2 run + 1 deselected; cheap: 1 + 2; aware and fixture: 3 each; unaware: 1.
+    result.assert_outcomes(passed=10, deselected=3)
     result.stdout.fnmatch_lines_random(
         [
-            "*test_detailed?low? SKIPPED*",
+            "multicosim: 3 deselected at fidelity levels they never run at",
             "*test_detailed?medium? PASSED*",
             "*test_detailed?high? PASSED*",
             "*test_cheap?low? PASSED*",
-            "*test_cheap?medium? SKIPPED*",
-            "*test_cheap?high? SKIPPED*",
             "*test_aware?low? PASSED*",
             "*test_aware?medium? PASSED*",
             "*test_aware?high? PASSED*",
             "*test_through_a_fixture?high? PASSED*",
-            "*fidelity 'medium' not in the test's levels (low)",
-            "*fidelity 'low' not in the test's levels (medium, high)",
         ]
     )
+    for gone in ("test_detailed[low]", "test_cheap[medium]", "test_cheap[high]"):
+        assert gone not in result.stdout.str()
 
 
 def test_only_selected_levels_run(pytester: pytest.Pytester) -> None:
     pytester.makepyfile(test_marked=MARKED)
     result = pytester.runpytest("--mcs-fidelity=high", "-v")
-    result.assert_outcomes(passed=4, skipped=1)
+    result.assert_outcomes(passed=4, deselected=1)
     assert "[low]" not in result.stdout.str()
     assert "[medium]" not in result.stdout.str()
+
+
+def test_simulator_fixture_puts_the_level_in_the_id(pytester: pytest.Pytester) -> None:
+    pytester.makepyfile(
+        test_sim="""
+        def test_with_simulator(mcs_simulator, mcs_fidelity):
+            assert mcs_fidelity in ("low", "medium")
+        """
+    )
+    result = pytester.runpytest("--mcs-fidelity=low,medium", "-v")
+    result.assert_outcomes(passed=2)
+    result.stdout.fnmatch_lines_random(
+        ["*test_with_simulator?low? PASSED*", "*test_with_simulator?medium? PASSED*"]
+    )
 
 
 def test_marker_on_module_and_class(pytester: pytest.Pytester) -> None:
@@ -287,23 +310,17 @@ def test_marker_on_module_and_class(pytester: pytest.Pytester) -> None:
         """
     )
     result = pytester.runpytest("--mcs-fidelity=low,medium", "-v")
-    result.assert_outcomes(passed=2, skipped=4)
+    result.assert_outcomes(passed=2, deselected=4)
     result.stdout.fnmatch_lines_random(
-        [
-            "*test_module_level?low? SKIPPED*",
-            "*test_module_level?medium? SKIPPED*",
-            "*test_in_class?low? PASSED*",
-            "*test_in_class?medium? SKIPPED*",
-            "*test_closest_marker_wins?low? SKIPPED*",
-            "*test_closest_marker_wins?medium? PASSED*",
-        ]
+        ["*test_in_class?low? PASSED*", "*test_closest_marker_wins?medium? PASSED*"]
     )
+    assert "test_module_level" not in result.stdout.str()
 
 
 def test_marker_is_registered(pytester: pytest.Pytester) -> None:
     pytester.makepyfile(test_marked=MARKED)
     result = pytester.runpytest("--strict-markers", "-W", "error")
-    result.assert_outcomes(passed=4, skipped=1)
+    result.assert_outcomes(passed=4, deselected=1)
     pytester.runpytest("--markers").stdout.fnmatch_lines(
         ["@pytest.mark.fidelity(*levels): run the test at these fidelity levels only*"]
     )
@@ -370,23 +387,21 @@ def test_quoted(word):
 """
 
 
-def test_failure_report_shows_seed_and_replay_command(
-    pytester: pytest.Pytester, monkeypatch: pytest.MonkeyPatch
-) -> None:
+def test_failure_report_shows_seed_and_replay_command(pytester: pytest.Pytester) -> None:
     pytester.makepyfile(test_failing=FAILING)
     result = pytester.runpytest("--mcs-fidelity=low,medium", "--mcs-seed=31337")
-    result.assert_outcomes(passed=2, failed=2, skipped=1)
+    result.assert_outcomes(passed=2, failed=2, deselected=1)
     here = pytester.path
     result.stdout.fnmatch_lines(
         [
             "*- multicosim -*",
             "verdict: AssertionError: seeded failure*",
-            f"replay: pytest '{here}/test_failing.py::test_fails[[]medium[]]' --mcs-seed=31337 "
+            f"replay: {PYTEST} '{here}/test_failing.py::test_fails[[]medium[]]' --mcs-seed=31337 "
             "--mcs-fidelity=medium --mcs-backend=process",
             "seed 31337, fidelity medium, backend process",
             "*- multicosim -*",
             "verdict: AssertionError: assert \"it's [[]odd[]]\" == 'plain'*",
-            f"replay: pytest *{here}/test_failing.py::test_quoted* --mcs-seed=31337 "
+            f"replay: {PYTEST} *{here}/test_failing.py::test_quoted* --mcs-seed=31337 "
             "--mcs-fidelity=low,medium *",
             "seed 31337, fidelity low,medium, backend process",
         ]
@@ -394,20 +409,27 @@ def test_failure_report_shows_seed_and_replay_command(
     assert result.stdout.str().count("- multicosim -") == 2  # passing tests get no section
 
     # Each replay command runs exactly its failing test again, with the same outcome, from
-    # any directory.
+    # any directory and without the virtual environment on PATH: it names the interpreter.
     replays = [
-        line.removeprefix("replay: pytest ")
-        for line in result.stdout.lines
-        if line.startswith("replay: pytest ")
+        line.removeprefix("replay: ") for line in result.stdout.lines if line.startswith("replay: ")
     ]
     assert len(replays) == 2
     elsewhere = pytester.mkdir("elsewhere")
-    monkeypatch.chdir(elsewhere)
+    bare = {k: v for k, v in os.environ.items() if k not in ("VIRTUAL_ENV", "PYTHONPATH")}
+    bare["PATH"] = os.defpath
     for replay, message in zip(replays, ["seeded failure", "it's [odd]"], strict=True):
-        again = pytester.runpytest(*shlex.split(replay))
-        again.assert_outcomes(failed=1)
-        again.stdout.fnmatch_lines(["seed 31337, fidelity *"])
-        assert message in again.stdout.str()
+        again = subprocess.run(
+            [*shlex.split(replay), "-p", "no:cacheprovider"],
+            cwd=elsewhere,
+            env=bare,
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
+        assert again.returncode == 1, again.stdout + again.stderr
+        assert "1 failed" in again.stdout
+        assert "seed 31337, fidelity " in again.stdout
+        assert message in again.stdout
 
 
 def test_failure_in_a_fixture_also_shows_the_seed(pytester: pytest.Pytester) -> None:
@@ -428,7 +450,7 @@ def test_failure_in_a_fixture_also_shows_the_seed(pytester: pytest.Pytester) -> 
     result.stdout.fnmatch_lines(
         [
             "verdict: RuntimeError: setup went wrong",
-            f"replay: pytest {pytester.path}/test_setup.py::test_uses_it --mcs-seed=4 *",
+            f"replay: {PYTEST} {pytester.path}/test_setup.py::test_uses_it --mcs-seed=4 *",
             "seed 4, fidelity low, backend process",
         ]
     )
@@ -450,7 +472,7 @@ def test_failure_report_shows_component_log_and_saves_it(pytester: pytest.Pytest
     pytester.makepyfile(test_component=COMPONENT_FAILS)
     result = pytester.runpytest("--mcs-artifacts=arts")
     result.assert_outcomes(failed=1)
-    test_dir = pytester.path / "arts" / "test_component.py_test_component_output"
+    test_dir = pytester.path / "arts" / "test_component.py_test_component_output_low"
     saved = test_dir / "seed-0-process" / "chatty.log"
     result.stdout.fnmatch_lines(
         [
@@ -476,7 +498,7 @@ def test_keep_traces_none_saves_nothing(pytester: pytest.Pytester) -> None:
 def test_artifacts_are_kept_per_seed_and_never_stale(pytester: pytest.Pytester) -> None:
     pytester.makepyfile(test_component=COMPONENT_FAILS)
     pytester.runpytest("--mcs-artifacts=arts", "--mcs-seed=1").assert_outcomes(failed=1)
-    test_dir = pytester.path / "arts" / "test_component.py_test_component_output"
+    test_dir = pytester.path / "arts" / "test_component.py_test_component_output_low"
     first = test_dir / "seed-1-process"
     assert {"chatty.log", "trace.mcap", "trace.layout.json"} <= {p.name for p in first.iterdir()}
     stale = first / "left-by-an-earlier-run.mcap"
@@ -507,7 +529,9 @@ def test_keep_traces_of_passing_tests(pytester: pytest.Pytester, keep: str, kept
     result = pytester.runpytest("--mcs-artifacts=arts", f"--mcs-keep-traces={keep}")
     result.assert_outcomes(passed=1)
     assert "- multicosim -" not in result.stdout.str()  # a passing test gets no section
-    log = pytester.path / "arts" / "test_passing.py_test_passes" / "seed-0-process" / "quiet.log"
+    log = (
+        pytester.path / "arts" / "test_passing.py_test_passes_low" / "seed-0-process" / "quiet.log"
+    )
     assert log.exists() is kept
     if kept:
         assert "all went well" in log.read_text()

@@ -96,8 +96,14 @@ def test_sigterm_handler_only_while_simulations_are_used(pytester: pytest.Pytest
 @pytest.mark.parametrize(
     ("where", "reason"),
     [
-        ("file/inside", "is not a directory"),
-        ("/proc/mcs-artifacts", "cannot write in /proc"),
+        (
+            "file/inside",
+            "the directory */file/inside cannot be created (*/file is not a directory)",
+        ),
+        (
+            "/proc/mcs-artifacts",
+            "the directory /proc/mcs-artifacts cannot be created (making one in /proc fails: *)",
+        ),
     ],
 )
 def test_unwritable_artifacts_directory_is_a_usage_error(

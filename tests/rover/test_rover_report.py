@@ -22,7 +22,7 @@ def test_failing_medium_rover_test_shows_component_logs(pytester: pytest.Pyteste
     result.assert_outcomes(failed=1)
     result.stdout.fnmatch_lines(
         [
-            "*replay: pytest *test_fails?medium?*",
+            "*replay: * -m pytest *test_fails?medium?*",
             "*--- controller: last output (full log: *controller.log) ---*",
             "*serving Firmware('controller'*",
         ]

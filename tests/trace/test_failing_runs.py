@@ -328,8 +328,8 @@ def test_the_report_and_the_junit_xml_name_trace_and_replay(failing_run: tuple[P
         properties = {p.get("name"): p.get("value") for p in case.iter("property")}
         assert properties["mcs_seed"] == "0"
         replay = shlex.split(str(properties["mcs_replay"]))
-        assert replay[0] == "pytest"
-        assert replay[1].startswith(f"{path}/test_failing.py::")
+        assert replay[:3] == [sys.executable, "-m", "pytest"]
+        assert replay[3].startswith(f"{path}/test_failing.py::")
         assert "--mcs-seed=0" in replay
         for kind, suffix in (("trace", ".mcap"), ("plot", ".png"), ("layout", ".json")):
             value = Path(str(properties[f"mcs_{kind}"]))

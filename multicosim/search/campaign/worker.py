@@ -2,7 +2,10 @@
 
 The executors (:mod:`.executors`) ship a :class:`Task` to a worker by pickle and get an
 :class:`Outcome` back, so both stay importable here, at a stable path, for the workers to
-unpickle; :func:`run_task` is the function they call.
+unpickle; :func:`run_task` is the function they call. The process pool ships the task by
+cloudpickle (:func:`pickled`, :func:`run_pickled`), as Ray does: a ``simulate`` (or a sample
+type, a derived signal) defined in ``__main__`` travels by value, so that a notebook's or
+``python -``'s functions run in workers that cannot import them.
 """
 
 from __future__ import annotations
@@ -28,7 +31,16 @@ import numpy as np
 from ..requirements import Evaluation, Requirement
 from .simulate import Simulate
 
-__all__ = ["Outcome", "RequirementSpec", "Task", "run_task", "summarize", "worker_init"]
+__all__ = [
+    "Outcome",
+    "RequirementSpec",
+    "Task",
+    "pickled",
+    "run_pickled",
+    "run_task",
+    "summarize",
+    "worker_init",
+]
 
 log = logging.getLogger(__name__)
 
@@ -202,6 +214,22 @@ def _trace_bytes(session: Any) -> dict[str, bytes]:
     except Exception as exc:  # a trace is a diagnosis aid: never lose the result over it
         log.warning("could not save the trace of a campaign sample: %s", exc)
         return {}
+
+
+def pickled(task: Task) -> bytes:
+    """``task`` as cloudpickle bytes: what its worker's ``__main__`` defines goes by value."""
+    import cloudpickle
+
+    payload: bytes = cloudpickle.dumps(task)
+    return payload
+
+
+def run_pickled(payload: bytes) -> Outcome:
+    """Run the task :func:`pickled` made (in a worker)."""
+    import pickle
+
+    task: Task = pickle.loads(payload)
+    return run_task(task)
 
 
 def worker_init() -> None:

@@ -53,12 +53,34 @@ class LevelResult:
 class Counterexample:
     """A violating sample and how it fares at each level it ran at (in level order).
 
-    ``found_at`` is the level the search found it at.
+    ``found_at`` is the level the search found it at; ``seed`` the seed every level ran it
+    with and ``requirement`` the formula it violates. :attr:`replay` says how to run it
+    again as a test; each level's ``traces`` hold what its run recorded (the trace of a
+    failing test: every channel, a plot with the vehicle's path).
     """
 
     example: Any
     found_at: str
     results: Mapping[str, LevelResult]
+    seed: int = 0
+    requirement: str = ""
+
+    @property
+    def replay(self) -> str:
+        """A pytest test that runs the counterexample again, and the command that runs it.
+
+        The sample, the lowest level that falsifies and the seed, with ``simulate`` standing
+        for the function the search called there.
+        """
+        level = self.lowest_failing or self.found_at
+        return (
+            "# in test_counterexample.py, beside your simulate function; run it with\n"
+            "#   python -m pytest test_counterexample.py\n"
+            "from multicosim import Requirement\n\n\n"
+            "def test_counterexample():\n"
+            f"    trajectory = simulate({self.example!r}, {level!r}, {self.seed!r})\n"
+            f"    Requirement({self.requirement!r}).check(trajectory)\n"
+        )
 
     @property
     def failing_levels(self) -> tuple[str, ...]:
@@ -112,6 +134,13 @@ class FalsificationResult:
     none within the budget) and ``first_confirmed`` to the first counterexample every level
     confirms. ``lowest`` is the lowest robustness the optimizer was told and its sample.
     ``trials`` lists every simulation, confirmations included; ``stats`` sums them per level.
+
+    In a test, :meth:`assert_holds` is the assertion: it fails with :meth:`summary` (the
+    counterexample, its verdict at each level, its traces and how to replay it) when the
+    requirement was falsified::
+
+        def test_overshoot_holds():
+            falsify(simulate, "always (overshoot <= 0.15)", space, budget=50).assert_holds()
     """
 
     requirement: str
@@ -159,10 +188,14 @@ class FalsificationResult:
 
     def summary(self) -> str:
         """A human-readable account of the search and the confirmations."""
+        # Confirmations happen only above the search's level: a one-level search has none.
+        confirmations = len(self.trials) - self.simulations
+        ran = f"{self.simulations} simulations"
+        if len(self.levels) > 1:
+            ran += f" and {confirmations} confirmations at {', '.join(self.levels[1:])}"
         head = (
             f"falsifying {self.requirement!r} from {self.levels[0]} fidelity ({self.optimizer}, "
-            f"seed {self.seed}, budget {self.budget}): {self.simulations} simulations, "
-            f"{len(self.trials)} with confirmations, in {self.wall_time:.2f} s"
+            f"seed {self.seed}, budget {self.budget}): {ran}, in {self.wall_time:.2f} s"
         )
         lines = [head]
         for name in self.levels[1:]:
@@ -183,11 +216,13 @@ class FalsificationResult:
             f"{self.first_confirmed}"
         )
         lines.append(f"counterexample (found at {cx.found_at}): {cx.example!r}")
-        lines.append(f"lowest fidelity that falsifies: {cx.lowest_failing}")
+        lines.append(f"lowest fidelity that falsifies: {cx.lowest_failing} (seed {cx.seed})")
         for level, r in cx.results.items():
             verdict = "FAILS" if r.falsified else "holds"
             lines.append(f"  {level:>6}: {verdict}  {r.evaluation.explain()}")
             lines.extend(f"          trace: {p}" for p in r.traces)
+        lines.append("replay it as a test:")
+        lines.extend(f"    {line}" for line in cx.replay.splitlines())
         saved = self.wall_time_saved
         if saved is not None:
             lines.append(
@@ -197,7 +232,12 @@ class FalsificationResult:
         return "\n".join(lines)
 
     def assert_holds(self) -> None:
-        """Raise AssertionError with the summary if the requirement was falsified."""
+        """Assert that the search found no confirmed counterexample (the pytest assertion).
+
+        Raises ``AssertionError`` with :meth:`summary` as its message if the requirement was
+        falsified (a violation every level confirmed); returns None otherwise. A violation
+        a higher level did not confirm does not fail it: ``result.first_violation`` tells.
+        """
         if self.falsified:
             raise AssertionError(self.summary())
 

@@ -54,6 +54,11 @@ class Search:
         self.fidelity_dim = fidelity_dim
         self.trace_dir = trace_dir
         self.bar = bar
+        from ... import trace
+
+        # Inside a test (pytest's trace is active), the test's trace gets the last violating
+        # run's recording: a failing falsification test leaves the trace a failing test does.
+        self.test_trace = trace.active()
         self.simulations = 0
         self.first: int | None = None
         self.confirmed_at: int | None = None
@@ -130,7 +135,9 @@ class Search:
             results[name] = self._simulate(index, sample, name)
         ordered = {name: results[name] for name in self.names if name in results}
         worst = max(r.evaluation.robustness for r in ordered.values() if r.falsified)
-        return worst, Counterexample(sample, level, ordered)
+        return worst, Counterexample(
+            sample, level, ordered, seed=self.seed, requirement=self.requirement.formula
+        )
 
     def _simulate(self, index: int, sample: Any, level: str) -> LevelResult:
         from ... import trace
@@ -139,14 +146,15 @@ class Search:
         run = spec.simulate or self.run
         session = None
         recording: contextlib.AbstractContextManager[Any] = contextlib.nullcontext()
-        if self.trace_dir is not None:
+        if self.trace_dir is not None or self.test_trace is not None:
             session = trace.TestTrace(
                 metadata={
                     "fidelity": level,
                     "seed": self.seed,
                     "failing_example": repr(sample),
                     "requirement": self.requirement.formula,
-                }
+                },
+                record_started=True,
             )
             recording = trace.activate(session)
         started = time.perf_counter()
@@ -155,9 +163,12 @@ class Search:
         wall = time.perf_counter() - started
         self.trials.append(Trial(index, sample, level, evaluation.robustness, wall))
         saved: tuple[Path, ...] = ()
-        if session is not None and self.trace_dir is not None and not evaluation.satisfied:
-            directory = self.trace_dir / f"sample-{index:05d}" / level
-            saved = tuple(session.save(directory))
+        if session is not None and not evaluation.satisfied:
+            if self.test_trace is not None:
+                self.test_trace.take(session)
+            if self.trace_dir is not None:
+                directory = self.trace_dir / f"sample-{index:05d}" / level
+                saved = tuple(session.save(directory))
         return LevelResult(level, evaluation, wall, saved)
 
     def stats(self) -> dict[str, LevelStats]:

@@ -1,4 +1,8 @@
-"""The local executor: a ``concurrent.futures`` pool of forkserver (or spawn) processes."""
+"""The local executor: a ``concurrent.futures`` pool of forkserver (or spawn) processes.
+
+Tasks travel by cloudpickle, so that a ``simulate`` defined in a notebook or in ``python -``
+(a ``__main__`` the workers cannot import) runs there as it would on Ray.
+"""
 
 from __future__ import annotations
 
@@ -6,12 +10,13 @@ import concurrent.futures
 import contextlib
 import multiprocessing
 import os
-from collections.abc import Sequence
+import sys
+from collections.abc import Iterator, Sequence
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any
 
 from ....core.errors import ConfigurationError
-from ..worker import Outcome, Task, run_task, worker_init
+from ..worker import Outcome, Task, pickled, run_pickled, worker_init
 from .protocol import Backend, TaskFailed, WorkerLost
 
 __all__ = ["PoolBackend", "ProcessExecutor"]
@@ -44,6 +49,25 @@ class ProcessExecutor:
         return PoolBackend(self.workers, self.context)
 
 
+@contextlib.contextmanager
+def _main_without_file() -> Iterator[None]:
+    """Hide a ``__main__.__file__`` that names no file (``python -`` has ``<stdin>``).
+
+    A new worker runs the main module's file again before its first task; there is none to
+    run, and the task brings what it needs of ``__main__`` by value.
+    """
+    main = sys.modules.get("__main__")
+    path = getattr(main, "__file__", None)
+    if main is None or path is None or os.path.isfile(path):
+        yield
+        return
+    del main.__file__
+    try:
+        yield
+    finally:
+        main.__file__ = path
+
+
 class PoolBackend:
     """A :class:`ProcessExecutor`'s running pool; a broken pool is replaced on the next task."""
 
@@ -63,7 +87,9 @@ class PoolBackend:
             self._pool = concurrent.futures.ProcessPoolExecutor(
                 max_workers=self._workers, mp_context=self._context, initializer=worker_init
             )
-        future = self._pool.submit(run_task, task)
+        payload = pickled(task)
+        with _main_without_file():  # processes start here, on demand
+            future = self._pool.submit(run_pickled, payload)
         self._owner[future] = self._pool
         return future
 
