@@ -275,15 +275,6 @@ class FlightSample(msgspec.Struct, frozen=True, kw_only=True):
     footprint_clearance: float = math.inf
     collision: bool = False
 
-
-class Collision(msgspec.Struct, frozen=True, kw_only=True):
-    """The vehicle hit ``obstacle`` (its index in ``WorldConfig.obstacles``) at simulated
-    ``time`` (s), moving at ``speed`` (m/s)."""
-
-    time: float
-    obstacle: int
-    speed: float
-
     # The public convention (multicosim.core.geo): north, east, up by name. x/y/z stay
     # MAVLink's north-east-down, as LOCAL_POSITION_NED reports them.
     @property
@@ -300,6 +291,15 @@ class Collision(msgspec.Struct, frozen=True, kw_only=True):
     def up(self) -> float:
         """The estimated position, metres above home (``-z``)."""
         return -self.z
+
+
+class Collision(msgspec.Struct, frozen=True, kw_only=True):
+    """The vehicle hit ``obstacle`` (its index in ``WorldConfig.obstacles``) at simulated
+    ``time`` (s), moving at ``speed`` (m/s)."""
+
+    time: float
+    obstacle: int
+    speed: float
 
 
 class WaypointReached(msgspec.Struct, frozen=True, kw_only=True):
