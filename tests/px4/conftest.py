@@ -10,6 +10,7 @@ import socket
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from collections.abc import Iterator
 
@@ -71,3 +72,44 @@ def sitl_process(
             except subprocess.TimeoutExpired:
                 os.killpg(proc.pid, signal.SIGKILL)
                 proc.wait()
+
+
+@pytest.fixture
+def sitl_thread() -> object:
+    """Context-manager factory: ``with sitl_thread(port, fidelity, speed)`` runs one in-process."""
+    return sitl_in_thread
+
+
+@contextlib.contextmanager
+def sitl_in_thread(port: int, fidelity: str, speed: float) -> Iterator[None]:
+    """The autopilot and its world in a thread (``run_sitl``), linked to UDP ``port``."""
+    from multicosim.mavlink.udp import Link
+    from multicosim.px4.standalone import run_sitl
+
+    stop, ready = threading.Event(), threading.Event()
+    errors: list[BaseException] = []
+
+    def run() -> None:
+        try:
+            run_sitl(
+                fidelity=fidelity,  # type: ignore[arg-type]
+                speed=speed,
+                links=[Link(port)],
+                stop=stop,
+                on_ready=lambda _: ready.set(),
+            )
+        except BaseException as exc:  # reported by the test
+            errors.append(exc)
+            ready.set()
+
+    thread = threading.Thread(target=run, name="sitl")
+    thread.start()
+    try:
+        assert ready.wait(20), "SITL did not start"
+        assert not errors, errors
+        yield
+    finally:
+        stop.set()
+        thread.join(20)
+    assert not thread.is_alive(), "SITL thread did not stop"
+    assert not errors, errors
