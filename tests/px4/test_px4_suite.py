@@ -1131,3 +1131,72 @@ def test_goto_speed_change_while_flying_is_applied(vehicle: Any) -> None:
         await _nav_state(t, AUTO, GOTO, 1)
 
     vehicle(case)
+
+
+# -- test_multicopter_rtl.cpp (after v1.15) ------------------------------------------------
+
+RALLY_POINT = 5100  # MAV_CMD_NAV_RALLY_POINT
+FRAME_GLOBAL_RELATIVE_ALT = 3
+
+
+def _raw_item(
+    seq: int,
+    command: int,
+    frame: int,
+    p1: float,
+    p2: float,
+    x: int,
+    y: int,
+    z: float,
+    mission_type: int = 0,
+) -> Any:
+    from mavsdk.asyncio.plugins.mission_raw import MissionItem
+
+    return MissionItem(
+        seq,
+        frame,
+        command,
+        int(seq == 0),
+        1 if mission_type == 0 else 0,
+        p1,
+        p2,
+        0.0,
+        0.0,
+        x,
+        y,
+        z,
+        mission_type,
+    )
+
+
+async def _global(t: Tester, north: float, east: float) -> tuple[int, int]:
+    lat, lon = (await t.projection()).reproject(north, east)
+    return round(lat * 1e7), round(lon * 1e7)
+
+
+def test_rtl_to_a_rally_point_when_home_is_not_the_closest(vehicle: Any) -> None:
+    from mavsdk.asyncio.plugins.offboard import PositionNedYaw
+
+    async def case(t: Tester) -> None:
+        await t.wait_until_ready()
+        await t.store_home()
+        await t.set_param_int("RTL_TYPE", 6)
+        # The rally point lies between the vehicle and home: it is the closer one.
+        rally = (300.0, 0.0)
+        x, y = await _global(t, *rally)
+        item = _raw_item(0, RALLY_POINT, FRAME_GLOBAL_RELATIVE_ALT, 0.0, 0.0, x, y, 0.0, 2)
+        if not await _succeeds(t.mission_raw.upload_rally_points([item])):
+            raise Failed("rally point upload")
+        await t.arm()
+        await t.takeoff()
+        await t.wait_until_hovering()
+        await t.offboard_goto(PositionNedYaw(400.0, 0.0, -20.0, 0.0), 5.0, 60)
+        await t.execute_rtl()
+        await t.wait_until_disarmed(150)
+        lat, lon = (await t.projection()).reproject(*rally)
+        truth = await t.telemetry.ground_truth()
+        n, e = LocalProjection(lat, lon).project(truth.latitude_deg, truth.longitude_deg)
+        t.check(math.hypot(n, e) < 5.0, f"landed at the rally point ({math.hypot(n, e):.1f} m)")
+        await t.check_home_not_within(20.0)
+
+    vehicle(case)

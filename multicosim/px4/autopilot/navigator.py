@@ -405,12 +405,18 @@ class Navigator(State):
         up = (
             p["MPC_TKO_SPEED"] if self.landed or self.mode == Mode.TAKEOFF else p["MPC_Z_V_AUTO_UP"]
         )
+        down = p["MPC_Z_V_AUTO_DN"]
+        if self.mode == Mode.OFFBOARD and not self.landed:
+            # Offboard setpoints go to PX4's position controller as they come (no flight task
+            # plans a path for them): its limits are the controller's, MPC_XY_VEL_MAX and
+            # MPC_Z_VEL_MAX_UP/DN, not the cruise speeds of the auto modes.
+            cruise, up, down = p["MPC_XY_VEL_MAX"], p["MPC_Z_VEL_MAX_UP"], p["MPC_Z_VEL_MAX_DN"]
         vel_sp = position_control(
             est.pos,
             sp,
             cruise=cruise,
             up=up,
-            down=p["MPC_Z_V_AUTO_DN"],
+            down=down,
             vz_override=vz_override,
         )
         if vxy is not None:
