@@ -235,6 +235,10 @@ class Navigator(State):
             return self._hold, None, False, None
         item = self.mission[self.seq]
         cmd = item.command
+        if cmd == CMD_DO_JUMP:
+            # Made current by MISSION_SET_CURRENT (see _on_mission_set_current): PX4 v1.15
+            # waits on it with an idle setpoint; the vehicle stays where it is.
+            return self._hold, None, False, None
         if cmd == CMD_RTL:
             sp = self._rtl()
             if self.landed:
