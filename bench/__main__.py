@@ -43,6 +43,7 @@ BENCHMARKS = (
     "px4",
     "px4_low",
     "sitl",
+    "hold",
     "ardupilot",
     "docker",
     "throughput",
@@ -430,6 +431,7 @@ BUILDERS: dict[str, Callable[[dict[str, dict[str, Any]]], list[Row]]] = {
     "px4": lambda r: speed_rows(r["px4"], "PX4"),
     "px4_low": lambda r: px4_low_rows(r["px4_low"]),
     "sitl": lambda r: sitl_rows(r["sitl"]),
+    "hold": lambda r: hold_rows(r["hold"]),
     "ardupilot": lambda r: ardupilot_rows(r["ardupilot"]),
     "physics": lambda r: physics_rows(r.get("rover"), r.get("px4")),
     "transport": lambda r: transport_rows(r["transport"]),
@@ -543,7 +545,12 @@ def sitl_rows(data: dict[str, Any]) -> list[Row]:
                 f"built-in {level} vs real PX4, {t['missions']} missions: path distance",
                 f"mean {t['mean_distance_m']:.2f} m, max {t['max_distance_m']:.2f} m; time "
                 f"ratio {t['time_ratio_mean']:.2f}; same waypoints "
-                f"{t['same_waypoints']}/{t['missions']}",
+                f"{t['same_waypoints']}/{t['missions']}"
+                + (
+                    f"; same verdict {t['same_verdict']}/{t['missions']}"
+                    if "same_verdict" in t
+                    else ""
+                ),
                 ratio=t["mean_distance_m"],
                 unit="m",
             )
@@ -556,6 +563,41 @@ def sitl_rows(data: dict[str, Any]) -> list[Row]:
                 "50 ms sample): built-in medium / real PX4",
                 f"{transfer['medium']['jitter_deg']:.2f} deg / "
                 f"{transfer['real PX4']['jitter_deg']:.2f} deg",
+            )
+        )
+    return rows
+
+
+def hold_rows(data: dict[str, Any]) -> list[Row]:
+    """Real PX4 holding a 10 m takeoff for 60 s in our world, before and after (bench_hold)."""
+
+    def both(fmt: Any) -> str:
+        before, after = data.get("before"), data["after"]
+        return (fmt(before) + " -> " if before else "") + fmt(after)
+
+    group = "real PX4 in our world (10 m takeoff, 60 s hold)"
+    rows = [
+        row(
+            group,
+            "altitude PX4 estimates: mean (largest error); before -> after",
+            both(lambda r: f"{r['altitude_mean_m']:.2f} m ({r['error_max_m']:.2f} m)"),
+        ),
+        row(
+            group,
+            "attitude jitter, std of roll / pitch; before -> after",
+            both(lambda r: f"{r['roll_std_deg']:.3f} / {r['pitch_std_deg']:.3f} deg"),
+        ),
+    ]
+    for name, label in (("hgt", "height"), ("pos", "position"), ("vel", "velocity")):
+        rows.append(
+            row(
+                group,
+                f"estimator {label} innovation test ratio, mean / max; before -> after",
+                both(
+                    lambda r, n=name: (
+                        f"{r[f'{n}_test_ratio']['mean']:.3f} / {r[f'{n}_test_ratio']['max']:.3f}"
+                    )
+                ),
             )
         )
     return rows

@@ -7,8 +7,9 @@
    messages), and the rest (the bridge's MAVLink encoding, the scheduler, the ground station);
 2. transfer: the same 10 missions flown by the built-in autopilot at low and medium fidelity
    and by real PX4; per mission the distance between the built-in's true path and real
-   PX4's (mean and max, horizontal), the time-to-complete ratio, and whether the same
-   waypoints were reached. This says how well a cheap run predicts real PX4.
+   PX4's (mean and max, horizontal), the time-to-complete ratio, whether the same
+   waypoints were reached, and whether the verdict is the same (the mission completed, or
+   not, on both). This says how well a cheap run predicts real PX4.
 
 Needs a PX4 SITL binary: ``--px4-binary PATH`` or ``MCS_PX4_BINARY``; without one the
 result says so. Usage: ``python bench/bench_sitl.py [--quick]``; prints a table and writes
@@ -124,6 +125,7 @@ def main(argv: list[str] | None = None) -> int:
                 "max_distance_m": worst,
                 "time_ratio": got.duration / ref.duration,
                 "same_waypoints": [r.index for r in got.reached] == [r.index for r in ref.reached],
+                "same_verdict": got.completed == ref.completed,
                 "jitter_deg": jitter(got),
             }
         flights.append(row)
@@ -137,6 +139,7 @@ def main(argv: list[str] | None = None) -> int:
                 max(f[level]["time_ratio"] for f in flights),
             ],
             "same_waypoints": sum(f[level]["same_waypoints"] for f in flights),
+            "same_verdict": sum(f[level]["same_verdict"] for f in flights),
             "missions": len(flights),
             "jitter_deg": statistics.fmean(f[level]["jitter_deg"] for f in flights),
         }
@@ -159,7 +162,8 @@ def main(argv: list[str] | None = None) -> int:
         print(
             f"built-in {level} vs real PX4 over {t['missions']} missions: path distance mean "
             f"{t['mean_distance_m']:.2f} m, max {t['max_distance_m']:.2f} m; time ratio "
-            f"{t['time_ratio_mean']:.2f}; same waypoints {t['same_waypoints']}/{t['missions']}"
+            f"{t['time_ratio_mean']:.2f}; same waypoints {t['same_waypoints']}/{t['missions']}; "
+            f"same verdict {t['same_verdict']}/{t['missions']}"
         )
     print(
         "attitude jitter (mean change of roll and pitch per sample): built-in medium "

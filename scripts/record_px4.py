@@ -12,6 +12,7 @@ tests/px4/test_conformance.py checks its answers against it.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import re
@@ -45,7 +46,8 @@ def main() -> int:
             [
                 sys.executable,
                 "-m",
-                "multicosim.px4",
+                "multicosim",
+                "px4",
                 "sitl",
                 "--px4-binary",
                 args.binary,
@@ -66,7 +68,8 @@ def main() -> int:
             print(log.read().decode(errors="replace")[-3000:], file=sys.stderr)
             raise
         finally:
-            os.killpg(proc.pid, signal.SIGTERM)
+            with contextlib.suppress(ProcessLookupError):  # it may have exited on its own
+                os.killpg(proc.pid, signal.SIGTERM)
             proc.wait(30)
     data = {"px4": conformance.PX4_VERSION, **data}
     Path(args.out).write_text(json.dumps(data, indent=1, sort_keys=False) + "\n")

@@ -27,6 +27,8 @@ import time
 from collections.abc import Callable
 from typing import Any, NamedTuple
 
+import msgspec
+
 from ..core.errors import MulticosimError, NodeCrashedError, NodeTimeoutError
 from ..local import Watch, crashed, stalled
 from ..runtime.context import StepContext, Subscription
@@ -40,6 +42,7 @@ from .hil import (
     Wire,
     from_mavlink,
     pack,
+    unpack,
 )
 from .mission import Topics
 
@@ -50,9 +53,20 @@ log = logging.getLogger(__name__)
 SIM_PORT = 4560
 """PX4's simulator port for instance 0 (instance N connects to SIM_PORT + N)."""
 
+HIL_CLOCK_START_US = 1_000_000
+"""PX4's clock starts one second in, as under Gazebo, which has run before PX4 sees its first
+sensor message: with a clock from zero, real PX4's local frame came out 0.6 m below where
+its estimator later put the ground (a 10 m takeoff held at 9.4 m). Added to the simulated
+time of everything sent to PX4."""
+
 BOOT_WAIT = 0.05  # s of wall time a step waits for PX4 before its first answer
 RECV = 65536  # bytes read from a socket at a time
 _MAX_PREAMBLE = 600  # bytes a client may send before its first MAVLink frame (2 frames' worth)
+
+
+def _on_px4_clock(msg: Any) -> Any:
+    """``msg`` with its time on PX4's clock (HIL_CLOCK_START_US later)."""
+    return msgspec.structs.replace(msg, time_usec=msg.time_usec + HIL_CLOCK_START_US)
 
 
 def _parse(parser: Any, data: bytes) -> list[Any]:
@@ -296,9 +310,10 @@ class HilTcpBridge(Lockstep):
             # PX4 takes the first sensor time as its clock's start: it must not be zero.
             return
         frames = [
-            (p if isinstance(p, MavlinkPacket) else pack(p)).data
+            pack(_on_px4_clock(m)).data
             for sub in self._subs
             for p in sub.messages
+            for m in (unpack(p) if isinstance(p, MavlinkPacket) else (p,))
         ]
         truth = self._ground_truth(ctx)
         if truth is not None:
@@ -333,7 +348,7 @@ class HilTcpBridge(Lockstep):
         self._next_truth = ctx.time + self._truth_interval
         t = sub.latest
         msg = self._d.MAVLink_hil_state_quaternion_message(
-            ctx.time_ns // 1000,
+            ctx.time_ns // 1000 + HIL_CLOCK_START_US,
             [t.qw, t.qx, t.qy, t.qz],
             t.rollspeed,
             t.pitchspeed,

@@ -7,9 +7,8 @@ expects (and our autopilot reads):
 * ``HIL_SENSOR`` every period with the IMU (specific force and angular rate, body FRD), and
   the magnetometer (gauss) and barometer (hPa, ISA) at 50 Hz, flagged in ``fields_updated``;
   one combined message where the sensor topics coincide, as PX4 SITL receives it;
-* ``HIL_GPS`` at 10 Hz: WGS84 position and NED velocity with a GNSS error that drifts slowly
-  (first-order Gauss-Markov, as a real receiver's does; white position noise would trip
-  PX4's GPS drift checks while landed);
+* ``HIL_GPS`` at 10 Hz: WGS84 position and NED velocity with PX4's Gazebo GNSS error (a
+  bias of millimetres that decorrelates within a quarter second, velocity noise);
 * :class:`~multicosim.mavlink.hil.Truth` at 20 Hz: the world's ground truth, attitude and
   specific force included.
 
@@ -37,13 +36,28 @@ GPS_PERIOD = 0.1
 MAG_BARO_PERIOD = 0.02
 TRUTH_PERIOD = 0.05
 
-# GNSS error: a slowly drifting offset (Gauss-Markov) per axis plus white velocity noise.
-GPS_DRIFT_SIGMA = (0.3, 0.3, 0.5)  # m (north, east, down) at noise 1
-GPS_DRIFT_TIME = 30.0  # s, correlation time of the offset
-GPS_VEL_SIGMA = 0.05  # m/s
-GPS_EPH_CM, GPS_EPV_CM = 100, 150  # reported accuracy
-ACCEL_SIGMA, GYRO_SIGMA = 0.02, 0.002  # m/s^2, rad/s
-MAG_SIGMA, BARO_SIGMA = 0.003, 0.1  # gauss, m
+# Noise as PX4's own simulation makes it (the Gazebo sensor plugins of its gazebo-classic
+# models at v1.15: gazebo_gps_plugin, the iris model's gazebo_imu_plugin parameters,
+# gazebo_barometer_plugin, gazebo_magnetometer_plugin), so that real PX4 flies our world as it
+# flies Gazebo. Gazebo steps these models every physics step of its worlds (4 ms).
+GAZEBO_STEP = 0.004  # s
+# GNSS: a bias that random-walks (2 and 4 (m/s)/sqrt(Hz) horizontally and vertically) and
+# decays by 1/60 of itself each step, plus velocity noise (0.2 and 0.4 (m/s)/sqrt(Hz)), both
+# scaled by sqrt(step) as the plugin does: millimetres of position error, no slow drift.
+_GPS_RANDOM_WALK = (2.0, 2.0, 4.0)
+_GPS_DECAY_STEPS = 60.0
+GPS_DRIFT_TIME = _GPS_DECAY_STEPS * GAZEBO_STEP  # s, correlation time of the bias
+GPS_DRIFT_SIGMA = tuple(
+    w * GAZEBO_STEP**1.5 / math.sqrt(1.0 - (1.0 - 1.0 / _GPS_DECAY_STEPS) ** 2)
+    for w in _GPS_RANDOM_WALK
+)  # m (north, east, down) at noise 1: the bias's stationary spread
+GPS_VEL_SIGMA = (0.2 * math.sqrt(GAZEBO_STEP),) * 2 + (0.4 * math.sqrt(GAZEBO_STEP),)  # m/s
+GPS_EPH_CM, GPS_EPV_CM = 100, 100  # reported accuracy (the plugin's std_xy, std_z: 1 m)
+# IMU white noise densities (iris: gyroscope 0.00018665 rad/s/sqrt(Hz), accelerometer
+# 0.00186 m/s^2/sqrt(Hz)), magnetometer 0.0004 gauss/sqrt(Hz): per sample, density/sqrt(dt).
+ACCEL_DENSITY, GYRO_DENSITY, MAG_DENSITY = 0.00186, 0.00018665, 0.0004
+# Barometer: 1 Pa RMS, no drift; as altitude near the ground (1 / (rho g)).
+BARO_SIGMA = 1.0 / (1.225 * 9.80665)  # m
 
 _ZERO3: Vec3 = (0.0, 0.0, 0.0)
 _NO_BARO = (0.0, 0.0, 0.0, 0.0)
@@ -84,6 +98,8 @@ class HilSensors:
         # Earth's field in NED gauss (the configuration is ENU tesla).
         self._field: Vec3 = (north * 1e4, east * 1e4, -up * 1e4)
         self._gps_every = _every(GPS_PERIOD, period)
+        self._imu_sigma = (ACCEL_DENSITY / math.sqrt(period), GYRO_DENSITY / math.sqrt(period))
+        self._mag_sigma = MAG_DENSITY / math.sqrt(MAG_BARO_PERIOD)
         self._slow_every = _every(MAG_BARO_PERIOD, period)
         self._truth_every = _every(TRUTH_PERIOD, period)
         self._combined = self.topics.mag == self.topics.imu == self.topics.baro
@@ -135,7 +151,7 @@ class HilSensors:
         topics = self.topics
         alt_msl = self.home.alt - ned[2]
         if k:
-            acc_s, gyr_s = ACCEL_SIGMA * k, GYRO_SIGMA * k
+            acc_s, gyr_s = self._imu_sigma[0] * k, self._imu_sigma[1] * k
             motion: tuple[float, ...] = (
                 accel[0] + g(acc_s),
                 accel[1] + g(acc_s),
@@ -150,7 +166,7 @@ class HilSensors:
             self._emit(ctx, topics.imu, _hil_sensor(t_us, IMU_FIELDS, motion))
         else:
             bx, by, bz = rotate_to_body(q, self._field)
-            mag_s = MAG_SIGMA * k
+            mag_s = self._mag_sigma * k
             mag = (bx + g(mag_s), by + g(mag_s), bz + g(mag_s))
             baro_alt = alt_msl + g(BARO_SIGMA * k)
             baro = (pressure_hpa(baro_alt), 0.0, baro_alt, 15.0 - 0.0065 * alt_msl)
@@ -178,8 +194,8 @@ class HilSensors:
             for i, s in enumerate(GPS_DRIFT_SIGMA):
                 drift[i] = a * drift[i] + b * g(s * k)
         lat, lon = self.proj.reproject(ned[0] + drift[0], ned[1] + drift[1])
-        vs = GPS_VEL_SIGMA * k
-        vn, ve, vd = vel[0] + g(vs), vel[1] + g(vs), vel[2] + g(vs)
+        vxy, vz = GPS_VEL_SIGMA[0] * k, GPS_VEL_SIGMA[2] * k
+        vn, ve, vd = vel[0] + g(vxy), vel[1] + g(vxy), vel[2] + g(vz)
         speed = math.hypot(vn, ve)
         cog = math.degrees(math.atan2(ve, vn)) % 360.0
         return HilGps(

@@ -5,7 +5,8 @@ the same questions in the same order and records its answers: its heartbeat, the
 it streams and their rates, its parameters (names, types, values; with ``metadata`` PX4's
 own parameter metadata, read over MAVLink FTP: defaults and ranges), its answer to each
 command in each state, its flight modes, and the mission protocol (mission items in the
-mission frame, DO_JUMP, geofence and rally lists, the legacy MISSION_REQUEST).
+mission frame, DO_JUMP and MISSION_SET_CURRENT onto it, geofence and rally lists, the legacy
+MISSION_REQUEST).
 
 ``scripts/record_px4.py`` records real PX4 SITL flying our world into
 ``multicosim/px4/data/px4-<version>.json``; the built-in autopilot's parameter table and
@@ -362,6 +363,14 @@ def _missions(link: _Link) -> dict[str, Any]:
     origin = (home.latitude, home.longitude) if home is not None else (473977420, 85455940)
     items = _mission_items(origin)
     out["mission"] = _upload(link, items, 0)
+    # MISSION_SET_CURRENT onto the DO_JUMP item: the current item then reported (PX4 v1.15
+    # takes the index as it is, without resolving the jump).
+    link.catch_up()
+    link.mav.mission_set_current_send(1, 1, 3)
+    link.sleep(1.0)
+    current = link.last.get("MISSION_CURRENT")
+    out["set current onto DO_JUMP"] = None if current is None else int(current.seq)
+    link.mav.mission_set_current_send(1, 1, 0)
     out["mission without jump"] = _upload(link, [items[0], items[1]], 0)
     corners = ((9000, 9000), (9000, -9000), (-9000, -9000), (-9000, 9000))
     fence = [

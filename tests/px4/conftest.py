@@ -10,8 +10,10 @@ import socket
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from collections.abc import Iterator
+from typing import Any
 
 import pytest
 
@@ -71,3 +73,100 @@ def sitl_process(
             except subprocess.TimeoutExpired:
                 os.killpg(proc.pid, signal.SIGKILL)
                 proc.wait()
+
+
+@pytest.fixture
+def sitl_thread() -> object:
+    """Context-manager factory: ``with sitl_thread(port, fidelity, speed)`` runs one in-process."""
+    return sitl_in_thread
+
+
+@contextlib.contextmanager
+def sitl_in_thread(port: int, fidelity: str, speed: float) -> Iterator[None]:
+    """The autopilot and its world in a thread (``run_sitl``), linked to UDP ``port``."""
+    from multicosim.mavlink.udp import Link
+    from multicosim.px4.standalone import run_sitl
+
+    stop, ready = threading.Event(), threading.Event()
+    errors: list[BaseException] = []
+
+    def run() -> None:
+        try:
+            run_sitl(
+                fidelity=fidelity,  # type: ignore[arg-type]
+                speed=speed,
+                links=[Link(port)],
+                stop=stop,
+                on_ready=lambda _: ready.set(),
+            )
+        except BaseException as exc:  # reported by the test
+            errors.append(exc)
+            ready.set()
+
+    thread = threading.Thread(target=run, name="sitl")
+    thread.start()
+    try:
+        assert ready.wait(20), "SITL did not start"
+        assert not errors, errors
+        yield
+    finally:
+        stop.set()
+        thread.join(20)
+    assert not thread.is_alive(), "SITL thread did not stop"
+    assert not errors, errors
+
+
+# -- agreement: each case of PX4's suite has one outcome on both autopilots ------------------
+
+_OUTCOMES = pytest.StashKey[dict[str, dict[str, str]]]()
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_makereport(item: pytest.Item, call: pytest.CallInfo[None]) -> object:
+    """Note the outcome of a case flown on an ``autopilot`` (an expected failure is a fail)."""
+    report = yield
+    autopilot = getattr(getattr(item, "callspec", None), "params", {}).get("autopilot")
+    if autopilot is None or not hasattr(item.module, "KNOWN_DIFFERENCES"):
+        return report
+    if report.when == "call" or (report.when == "setup" and report.outcome != "passed"):
+        if report.outcome == "skipped" and not hasattr(report, "wasxfail"):
+            return report  # not flown (no PX4 binary): nothing to compare
+        failed = report.outcome == "failed" or (
+            report.outcome == "skipped" and hasattr(report, "wasxfail")
+        )
+        case = getattr(item, "originalname", item.name)
+        outcomes = item.config.stash.setdefault(_OUTCOMES, {})
+        outcomes.setdefault(case, {})[autopilot] = "fail" if failed else "pass"
+        outcomes[case]["_known"] = item.module.KNOWN_DIFFERENCES.get(case, "")
+    return report
+
+
+def _disagreements(config: pytest.Config) -> list[str]:
+    out = []
+    for case, seen in sorted(config.stash.get(_OUTCOMES, {}).items()):
+        both = {"builtin", "sitl"} <= seen.keys()
+        if both and seen["builtin"] != seen["sitl"] and not seen["_known"]:
+            out.append(f"{case}: built-in {seen['builtin']}, real PX4 {seen['sitl']}")
+    return out
+
+
+def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
+    """Fail the run where a case's outcome differs between the built-in autopilot and real
+    PX4, unless it is a known difference (with the PX4 v1.15 source that explains it)."""
+    if _disagreements(session.config) and exitstatus == pytest.ExitCode.OK:
+        session.exitstatus = pytest.ExitCode.TESTS_FAILED
+
+
+def pytest_terminal_summary(terminalreporter: Any, exitstatus: int, config: pytest.Config) -> None:
+    """Per case flown on both: built-in vs real PX4, and where they disagree."""
+    seen = {c: s for c, s in config.stash.get(_OUTCOMES, {}).items() if "sitl" in s}
+    if not seen:
+        return
+    terminalreporter.section("built-in autopilot vs real PX4")
+    for case, s in sorted(seen.items()):
+        known = f" (known: {s['_known']})" if s["_known"] and s.get("builtin") != s["sitl"] else ""
+        terminalreporter.line(
+            f"{case}: built-in {s.get('builtin', '-')}, real PX4 {s['sitl']}{known}"
+        )
+    for line in _disagreements(config):
+        terminalreporter.line(f"DISAGREE {line}", red=True)

@@ -7,7 +7,6 @@ port our pymavlink "ground station" listens on; every receive has a timeout.
 from __future__ import annotations
 
 import math
-import threading
 import time
 from collections.abc import Iterator
 from typing import Any
@@ -15,8 +14,6 @@ from typing import Any
 import pytest
 
 from multicosim.mavlink.dialect import MainMode, Mode, SubMode, decode_custom_mode
-from multicosim.mavlink.udp import Link
-from multicosim.px4.standalone import run_sitl
 
 mavutil = pytest.importorskip("pymavlink.mavutil")
 
@@ -51,39 +48,15 @@ class Gcs:
 
 
 @pytest.fixture
-def gcs(udp_port: int) -> Iterator[Gcs]:
+def gcs(udp_port: int, sitl_thread: Any) -> Iterator[Gcs]:
     """An autopilot (low fidelity, 10x real time) and a ground station talking to it."""
-    stop = threading.Event()
-    ready = threading.Event()
-    errors: list[BaseException] = []
-
-    def run() -> None:
-        try:
-            run_sitl(
-                fidelity="low",
-                speed=SPEED,
-                links=[Link(udp_port)],
-                stop=stop,
-                on_ready=lambda _: ready.set(),
-            )
-        except BaseException as exc:  # reported by the test
-            errors.append(exc)
-            ready.set()
-
-    thread = threading.Thread(target=run, name="sitl")
     station = Gcs(udp_port)
-    thread.start()
     try:
-        assert ready.wait(20), "SITL did not start"
-        assert not errors, errors
-        station.recv("HEARTBEAT", 10)
-        yield station
+        with sitl_thread(udp_port, "low", SPEED):
+            station.recv("HEARTBEAT", 10)
+            yield station
     finally:
-        stop.set()
-        thread.join(20)
         station.close()
-    assert not thread.is_alive(), "SITL thread did not stop"
-    assert not errors, errors
 
 
 def test_heartbeat_presents_a_px4_quadrotor(gcs: Gcs) -> None:

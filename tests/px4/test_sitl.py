@@ -28,7 +28,7 @@ import multicosim as mcs
 import multicosim.px4 as px4
 from multicosim.core.geo import LocalProjection
 from multicosim.mavlink.hil import Truth, Wire
-from multicosim.mavlink.hil_bridge import HilTcpBridge
+from multicosim.mavlink.hil_bridge import HIL_CLOCK_START_US, HilTcpBridge
 from multicosim.mavlink.mission import world_topics
 from multicosim.mavlink.udp import API_PORT
 from multicosim.px4.scenario import WorldComponent
@@ -200,11 +200,11 @@ def test_bridge_runs_the_world_in_lockstep_with_a_tcp_simulator_client(process: 
         client.stop.set()
         client.join(5)
     assert client.error is None, client.error
-    # Every step answered (lockstep); the first sample is stamped after zero, as PX4 needs.
+    # Every step answered (lockstep); PX4's clock starts a second in, as under Gazebo.
     assert bridge.steps == bridge.replies > 400
     assert client.imu >= bridge.steps
     assert client.first_time is not None
-    assert client.first_time > 0
+    assert HIL_CLOCK_START_US < client.first_time < HIL_CLOCK_START_US + 10_000_000
     assert client.gps_fix == 3
     assert client.ground_truth > 10, "HIL_STATE_QUATERNION was asked for and not sent"
     assert truth[-1].alt > 1.0, "70 % throttle did not lift the quadrotor"

@@ -26,6 +26,16 @@ POSITION_MODES = (
     Mode.FOLLOW_TARGET,
 )
 MANUAL_MODES = (Mode.MANUAL, Mode.ALTCTL, Mode.POSCTL, Mode.ACRO, Mode.STABILIZED)
+# COM_OBL_RC_ACT: the mode to fall back to when offboard is lost (PX4 v1.15's
+# offboard_loss_failsafe_mode; 6 Terminate and 7 Disarm are not simulated: they land).
+OFFBOARD_LOSS_MODES = {
+    0: Mode.POSCTL,
+    1: Mode.ALTCTL,
+    2: Mode.STABILIZED,
+    3: Mode.RTL,
+    4: Mode.LAND,
+    5: Mode.LOITER,
+}
 
 
 class Commander(State):
@@ -107,8 +117,14 @@ class Commander(State):
             return "no home position"
         if mode == Mode.OFFBOARD and not self._offboard_fresh():
             return None
+        self._offboard_lost = False  # a mode the user chose ends the offboard fallback
         if mode == self.mode and mode != Mode.MISSION:
             return None
+        self._enter(mode)
+        return None
+
+    def _enter(self, mode: Mode) -> None:
+        """Switch to ``mode`` (the user's choice or a failsafe's): reset what it starts from."""
         self.mode = mode
         self._phase = ""
         self._follow_adjust = [0.0, 0.0, 0.0]
@@ -127,7 +143,6 @@ class Commander(State):
             self.mission_state = MISSION_STATE_PAUSED
             self._dirty.add("MISSION_CURRENT")
         self._dirty.add("HEARTBEAT")
-        return None
 
     def _offboard_fresh(self) -> bool:
         sp = self._offboard
@@ -140,10 +155,7 @@ class Commander(State):
         if not self.armed:
             return
         self._position_failsafe()
-        if self.mode == Mode.OFFBOARD and not self._offboard_fresh():
-            # Offboard loss (COM_OF_LOSS_T): hold where it is (COM_OBL_RC_ACT without RC).
-            self._text("Failsafe activated: no offboard", SEV_WARNING)
-            self.set_mode(Mode.LOITER if est.position_ok(now) else Mode.LAND)
+        self._offboard_failsafe()
         # Land detector: asked to descend, but not moving down (the ground holds it).
         if self.landed:
             if est.pos[2] < self._ground_d - 0.4:
@@ -181,6 +193,28 @@ class Commander(State):
             ):
                 self._text("Disarmed: no takeoff", SEV_NOTICE)
                 self.disarm()
+
+    def _offboard_failsafe(self) -> None:
+        """Offboard lost after COM_OF_LOSS_T: COM_OBL_RC_ACT's mode until setpoints return.
+
+        As PX4 v1.15's failsafe framework (commander/failsafe: a mode fallback clears with
+        its condition): the user's mode stays offboard, so offboard resumes when setpoints
+        come again. Position mode without sticks holds where it is; a mode that needs a
+        position falls back to Altitude mode without one (FallbackPosCtrl's fall-through).
+        """
+        fresh = self._offboard_fresh()
+        if self.mode == Mode.OFFBOARD and not fresh:
+            fallback = OFFBOARD_LOSS_MODES.get(int(self.params["COM_OBL_RC_ACT"]), Mode.LAND)
+            needs_position = (*POSITION_MODES, Mode.LOITER, Mode.LAND)
+            if fallback in needs_position and not self.est.position_ok(self._now):
+                fallback = Mode.ALTCTL
+            self._text("Failsafe activated: no offboard", SEV_WARNING)
+            self._enter(fallback)
+            self._offboard_lost = True
+        elif self._offboard_lost and fresh:
+            self._text("Failsafe deactivated")
+            self._enter(Mode.OFFBOARD)
+            self._offboard_lost = False
 
     def _touching(self) -> bool:
         """Asked to descend but not moving down: the ground holds the vehicle.

@@ -115,6 +115,7 @@ class Autopilot(Commander, Navigator, Failures, Commands, ParamServer, Missions,
         self.mode = Mode.LOITER
         self.landed = True
         self.failsafe = None
+        self._offboard_lost = False
         self._armed_at = 0.0
         self._flew = False
         self._landed_at = None

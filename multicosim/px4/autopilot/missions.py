@@ -307,7 +307,17 @@ class Missions(State):
     def _on_mission_set_current(self, m: Any) -> None:
         if 0 <= m.seq < len(self.mission):
             self.seq = m.seq
-            self._start_mission_item()
+            if self.mission[m.seq].command == CMD_DO_JUMP:
+                # PX4 v1.15 takes the index verbatim and loads the DO_JUMP itself as the
+                # current item, without resolving the jump (navigator/mission_base.cpp,
+                # MissionBase::updateMavlinkMission: `_mission = new_mission;`, then
+                # set_mission_items()): an idle setpoint, and the mission waits there for
+                # good. The navigator holds (PX4 resolves the jump only in later releases).
+                self._phase = ""
+                self._target = None
+                self._hold = (self.est.pos[0], self.est.pos[1], self.est.pos[2])
+            else:
+                self._start_mission_item()
             self._dirty.add("MISSION_CURRENT")
 
 

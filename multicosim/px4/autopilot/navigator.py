@@ -245,6 +245,10 @@ class Navigator(State):
             return self._hold, None, False, None
         item = self.mission[self.seq]
         cmd = item.command
+        if cmd == CMD_DO_JUMP:
+            # Made current by MISSION_SET_CURRENT (see _on_mission_set_current): PX4 v1.15
+            # waits on it with an idle setpoint; the vehicle stays where it is.
+            return self._hold, None, False, None
         if cmd == CMD_RTL:
             sp = self._rtl()
             if self.landed:
@@ -456,12 +460,18 @@ class Navigator(State):
         up = (
             p["MPC_TKO_SPEED"] if self.landed or self.mode == Mode.TAKEOFF else p["MPC_Z_V_AUTO_UP"]
         )
+        down = p["MPC_Z_V_AUTO_DN"]
+        if self.mode == Mode.OFFBOARD and not self.landed:
+            # Offboard setpoints go to PX4's position controller as they come (no flight task
+            # plans a path for them): its limits are the controller's, MPC_XY_VEL_MAX and
+            # MPC_Z_VEL_MAX_UP/DN, not the cruise speeds of the auto modes.
+            cruise, up, down = p["MPC_XY_VEL_MAX"], p["MPC_Z_VEL_MAX_UP"], p["MPC_Z_VEL_MAX_DN"]
         vel_sp = position_control(
             est.pos,
             sp,
             cruise=cruise,
             up=up,
-            down=p["MPC_Z_V_AUTO_DN"],
+            down=down,
             vz_override=vz_override,
             origin=self._leg_origin if leg else None,
         )

@@ -72,6 +72,7 @@ class State:
     mode: Mode
     landed: bool
     failsafe: str | None
+    _offboard_lost: bool  # offboard lost: a fallback mode flies until setpoints return
     _armed_at: float
     _flew: bool
     _landed_at: float | None
