@@ -6,7 +6,7 @@ import shutil
 from pathlib import Path
 
 import pytest
-import yaml  # noqa: F401  # loaded once: in-process inner runs must not import it anew
+import yaml  # type: ignore[import-untyped]  # noqa: F401  # loaded once: in-process inner runs must not import it anew
 
 DATA = Path(__file__).parent.parent / "data"
 
