@@ -27,6 +27,12 @@ if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
     signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
+def pytest_configure(config: pytest.Config) -> None:
+    from px4_agreement import Agreement
+
+    config.pluginmanager.register(Agreement(), "px4-agreement")
+
+
 @pytest.fixture
 def no_leaks() -> Iterator[None]:
     """Fail if the test leaves a child process of this interpreter running."""

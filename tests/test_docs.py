@@ -348,8 +348,17 @@ def test_ardupilot_guide_listing_runs(ardupilot_dir: str) -> None:
     assert result.landed
 
 
-def test_px4_guide_listing_runs() -> None:
-    namespace = _run("real = px4.PX4(")  # flies at low; configures real PX4 without starting it
+def test_px4_guide_listing_runs(tmp_path: Path) -> None:
+    # It flies at low and configures real PX4 without starting it: a build's layout will do.
+    (tmp_path / "bin").mkdir()
+    (tmp_path / "etc" / "init.d-posix" / "airframes").mkdir(parents=True)
+    (tmp_path / "etc" / "init.d-posix" / "rcS").write_text("")
+    (tmp_path / "etc" / "init.d-posix" / "airframes" / "10016_none_iris").write_text("")
+    binary = tmp_path / "bin" / "px4"
+    binary.write_text("")
+    binary.chmod(0o755)
+    code = _block("real = px4.PX4(").replace(PX4_PLACEHOLDER, repr(str(binary)))
+    namespace = _run("real = px4.PX4(", code=code)
     assert [r.index for r in namespace["result"].reached] == [0]
     assert namespace["real"].fidelity == "medium"
 

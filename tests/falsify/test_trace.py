@@ -61,7 +61,7 @@ def test_every_topic_is_recorded_with_schemas_from_the_message_types(tmp_path: P
     trace = read_trace(path)
     counts = {t: trace.channels[t].count for t in trace.channels}
     assert sum(counts.values()) == len(recorder.deliveries)
-    assert trace.channels["state"].schema["properties"]["x"] == {"type": "number"}
+    assert trace.channels["state"].schema["properties"]["x"] == {"type": ["number", "null"]}
     assert trace.channels["state"].schema["$schema"] == DIALECT
     states = trace.topic("state")
     assert [m.log_time for m in states] == sorted(m.log_time for m in states)

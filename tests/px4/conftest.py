@@ -12,8 +12,7 @@ import sys
 import tempfile
 import threading
 import time
-from collections.abc import Generator, Iterator
-from typing import Any, cast
+from collections.abc import Iterator
 
 import pytest
 
@@ -114,83 +113,3 @@ def sitl_in_thread(port: int, fidelity: str, speed: float) -> Iterator[None]:
         thread.join(20)
     assert not thread.is_alive(), "SITL thread did not stop"
     assert not errors, errors
-
-
-# -- agreement: each case of PX4's suite has one outcome on both autopilots ------------------
-
-# The outcome travels in the report (as xdist sends reports to the controller), so the run
-# that judges agreement sees every case's outcomes, whichever worker flew them.
-_OUTCOME = "px4-agreement"
-# case -> autopilot -> "pass" / "fail", and case -> why it may differ (a module's word).
-_seen: dict[str, dict[str, str]] = {}
-
-
-@pytest.hookimpl(wrapper=True)
-def pytest_runtest_makereport(
-    item: pytest.Item, call: pytest.CallInfo[None]
-) -> Generator[None, pytest.TestReport, pytest.TestReport]:
-    """Note the outcome of a case flown on an ``autopilot`` (an expected failure is a fail)."""
-    report = yield
-    callspec = getattr(item, "callspec", None)
-    autopilot = callspec.params.get("autopilot") if callspec is not None else None
-    module: Any = getattr(item, "module", None)
-    if autopilot is None or not hasattr(module, "KNOWN_DIFFERENCES"):
-        return report
-    if report.when == "call" or (report.when == "setup" and report.outcome != "passed"):
-        xfailed = report.outcome == "skipped" and hasattr(report, "wasxfail")
-        if report.outcome == "skipped" and not xfailed:
-            return report  # not flown (no PX4 binary): nothing to compare
-        failed = report.outcome == "failed" or xfailed
-        case = getattr(item, "originalname", item.name)
-        known = module.KNOWN_DIFFERENCES.get(case, "")
-        open_ = getattr(module, "OPEN_DIFFERENCES", {}).get(case, "")
-        report.user_properties.append(
-            (_OUTCOME, [case, str(autopilot), "fail" if failed else "pass", known, open_])
-        )
-    return report
-
-
-def pytest_runtest_logreport(report: pytest.TestReport) -> None:
-    for name, value in report.user_properties:
-        if name == _OUTCOME:
-            case, autopilot, outcome, known, open_ = cast(list[str], value)
-            seen = _seen.setdefault(case, {})
-            seen[autopilot] = outcome
-            seen["_known"], seen["_open"] = known, open_
-
-
-def _disagreements() -> list[str]:
-    out = []
-    for case, seen in sorted(_seen.items()):
-        both = {"builtin", "sitl"} <= seen.keys()
-        if both and seen["builtin"] != seen["sitl"] and not seen["_known"] and not seen["_open"]:
-            out.append(f"{case}: built-in {seen['builtin']}, real PX4 {seen['sitl']}")
-    return out
-
-
-def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
-    """Fail the run where a case's outcome differs between the built-in autopilot and real
-    PX4, unless it is a known difference (with the PX4 v1.15 source that explains it) or an
-    open one (measured, its cause not yet found: listed, so it is not forgotten)."""
-    if hasattr(session.config, "workerinput"):
-        return  # a worker sees only its own cases: the controller judges
-    if _disagreements() and exitstatus == pytest.ExitCode.OK:
-        session.exitstatus = pytest.ExitCode.TESTS_FAILED
-
-
-def pytest_terminal_summary(terminalreporter: Any, exitstatus: int, config: pytest.Config) -> None:
-    """Per case flown on both: built-in vs real PX4, and where they disagree."""
-    seen = {c: s for c, s in _seen.items() if "sitl" in s}
-    if not seen or hasattr(config, "workerinput"):
-        return
-    terminalreporter.section("built-in autopilot vs real PX4")
-    for case, s in sorted(seen.items()):
-        why = ""
-        if s.get("builtin") not in (None, s["sitl"]):
-            why = f" (known: {s['_known']})" if s["_known"] else ""
-            why = why or (f" (open: {s['_open']})" if s["_open"] else "")
-        terminalreporter.line(
-            f"{case}: built-in {s.get('builtin', '-')}, real PX4 {s['sitl']}{why}"
-        )
-    for line in _disagreements():
-        terminalreporter.line(f"DISAGREE {line}", red=True)

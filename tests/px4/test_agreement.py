@@ -1,8 +1,8 @@
 """A case of PX4's suite must have one outcome on the built-in autopilot and on real PX4.
 
-``tests/px4/conftest.py`` notes each case's outcome per autopilot and fails the run where
-they differ, unless the module names the case a known difference. Checked here on a small
-suite of its own, run by pytest in-process with that conftest.
+``tests/px4_agreement.py`` notes each case's outcome per autopilot and fails the run where
+they differ, unless the module names the case a known or an open difference. Checked here on
+a small suite of its own, run by pytest with that plugin.
 """
 
 from __future__ import annotations
@@ -10,6 +10,18 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+
+TESTS = Path(__file__).resolve().parents[1]
+CONFTEST = f"""
+import sys
+
+sys.path.insert(0, {str(TESTS)!r})
+from px4_agreement import Agreement
+
+
+def pytest_configure(config):
+    config.pluginmanager.register(Agreement(), "px4-agreement")
+"""
 
 SUITE = """
 import pytest
@@ -48,7 +60,7 @@ def test_both_fail(autopilot):
 def test_a_case_that_differs_fails_the_run_and_a_known_one_does_not(
     pytester: pytest.Pytester,
 ) -> None:
-    pytester.makeconftest((Path(__file__).parent / "conftest.py").read_text())
+    pytester.makeconftest(CONFTEST)
     pytester.makepyfile(test_suite=SUITE)
     result = pytester.runpytest_inprocess("-p", "no:cacheprovider", "-p", "no:randomly")
     result.stdout.fnmatch_lines(
@@ -70,7 +82,7 @@ def test_a_case_that_differs_fails_the_run_and_a_known_one_does_not(
 def test_a_disagreement_fails_a_run_whose_cases_all_passed_as_expected(
     pytester: pytest.Pytester,
 ) -> None:
-    pytester.makeconftest((Path(__file__).parent / "conftest.py").read_text())
+    pytester.makeconftest(CONFTEST)
     suite = SUITE.replace(
         "def test_differs(autopilot):",
         '@pytest.mark.xfail(reason="real PX4 only")\ndef test_differs(autopilot):',
@@ -84,7 +96,7 @@ def test_a_disagreement_fails_a_run_whose_cases_all_passed_as_expected(
 
 def test_the_run_judges_agreement_over_every_worker(pytester: pytest.Pytester) -> None:
     # With xdist, a case's two outcomes may come from two workers: the controller compares.
-    pytester.makeconftest((Path(__file__).parent / "conftest.py").read_text())
+    pytester.makeconftest(CONFTEST)
     pytester.makepyfile(test_suite=SUITE)
     result = pytester.runpytest_subprocess("-p", "no:cacheprovider", "-n", "2")
     result.stdout.fnmatch_lines(["DISAGREE test_differs: built-in pass, real PX4 fail"])
@@ -93,7 +105,7 @@ def test_the_run_judges_agreement_over_every_worker(pytester: pytest.Pytester) -
 
 
 def test_an_open_difference_is_listed_and_does_not_fail_the_run(pytester: pytest.Pytester) -> None:
-    pytester.makeconftest((Path(__file__).parent / "conftest.py").read_text())
+    pytester.makeconftest(CONFTEST)
     suite = (
         SUITE.replace(
             "def test_differs(autopilot):",
