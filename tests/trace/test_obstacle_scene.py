@@ -21,7 +21,7 @@ HOME = px4.Home()
 PROJ = LocalProjection(HOME.lat, HOME.lon)
 # A hangar turned 30 degrees clockwise from north, north-east of home; a tank placed by its
 # coordinates, south-east; the flight goes north-west, past both.
-HANGAR = Box(length=12, width=4, height=15, yaw=30, north=30, east=30, name="hangar")
+HANGAR = Box(length=12, width=4, height=15, yaw=30, north=35, east=25, name="hangar")
 TANK_AT = (-20.0, 25.0)  # north, east (m)
 TANK_LAT, TANK_LON = PROJ.reproject(*TANK_AT)
 TANK = Cylinder(radius=3, height=8, lat=TANK_LAT, lon=TANK_LON)
@@ -75,7 +75,7 @@ def test_the_obstacles_are_one_valid_scene_update_at_the_start(flight: tuple[Pat
     (cube,) = hangar["cubes"]
     assert cube["size"] == pytest.approx({"x": 12.0, "y": 4.0, "z": 15.0})
     # East, north, up: the centre of the footprint, half the height up.
-    assert cube["pose"]["position"] == pytest.approx({"x": 30.0, "y": 30.0, "z": 7.5})
+    assert cube["pose"]["position"] == pytest.approx({"x": 25.0, "y": 35.0, "z": 7.5})
     q = cube["pose"]["orientation"]
     assert (q["x"], q["y"]) == pytest.approx((0.0, 0.0))  # a turn about the vertical only
     # Its length (x) points 30 degrees clockwise from north; its width 90 degrees further.
