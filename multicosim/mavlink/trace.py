@@ -11,7 +11,8 @@
 * ``px4/location/estimate`` (GLOBAL_POSITION_INT) and ``px4/location/truth`` (the world's
   truth): two ``foxglove.LocationFix`` tracks; ``mcs/path/estimate`` and ``mcs/path/truth``
   the same in metres from home, for the plot.
-* ``mcs/obstacles``: the world's obstacles (footprints and heights), for the plot.
+* ``mcs/obstacles``: the world's obstacles (footprints and heights), for the plot; ``mcs/scene``
+  the same as ``foxglove.SceneUpdate`` (a cube or cylinder each, in ``map``) for the 3D panel.
 * ``px4/mission``: the uploaded mission (MISSION_ITEM_INT) as ``foxglove.GeoJSON`` for the
   Map panel, and ``mcs/plan`` for the plot.
 * The layout plots each position setpoint (POSITION_TARGET_LOCAL_NED) beside the estimate.
@@ -27,7 +28,7 @@ from collections.abc import Iterable, Iterator, Sequence
 from typing import TYPE_CHECKING, Any
 
 from ..core.geo import LocalProjection, quaternion_from_euler, swap_attitude_frames
-from ..physics.obstacles import Obstacle, placed
+from ..physics.obstacles import Obstacle, Placed, placed
 from ..trace import (
     DIALECT,
     GEOJSON,
@@ -40,12 +41,16 @@ from ..trace import (
     PLAN,
     PLAN_CHANNEL,
     POSE_IN_FRAME,
+    SCENE_CHANNEL,
+    SCENE_UPDATE,
     Converted,
     Schema,
     TraceOptions,
     fix_message,
     message_path,
+    pose,
     pose_message,
+    scene_entity,
     stamp,
 )
 from .dialect import decode_frames, dialect, new_link
@@ -62,6 +67,8 @@ ESTIMATE_FIX = "px4/location/estimate"
 TRUTH_FIX = "px4/location/truth"
 MISSION_CHANNEL = "px4/mission"
 
+# Obstacles in the 3D panel: the plot's brown, see-through.
+_OBSTACLE_COLOR = {"r": 0.55, "g": 0.34, "b": 0.29, "a": 0.6}
 # MAV_SEVERITY (0 emergency .. 7 debug) -> foxglove.LogLevel (1 debug .. 5 fatal).
 _LOG_LEVEL = {0: 5, 1: 5, 2: 5, 3: 4, 4: 3, 5: 2, 6: 2, 7: 1}
 # C types of MAVLink fields: JSON integer bounds.
@@ -281,28 +288,60 @@ class _Links:
         yield Converted(PLAN_CHANNEL, PLAN, {"points": plan})
 
 
+def _obstacle_entity(time_ns: int, p: Placed) -> dict[str, Any]:
+    """A placed obstacle as a ``foxglove.SceneEntity`` in the east-north-up ``map`` frame: a
+    cube (``length`` along its x axis, turned to the box's yaw) or a cylinder, standing on the
+    ground, with the obstacle's label as its id.
+    """
+    centre = (p.east, p.north, p.height / 2)
+    metadata = {"name": p.label, "number": str(p.number)}
+    if p.radius:
+        cylinder = {
+            "pose": pose(centre, (1.0, 0.0, 0.0, 0.0)),
+            "size": {"x": 2 * p.radius, "y": 2 * p.radius, "z": p.height},
+            "bottom_scale": 1.0,
+            "top_scale": 1.0,
+            "color": _OBSTACLE_COLOR,
+        }
+        return scene_entity(time_ns, p.label, cylinders=[cylinder], metadata=metadata)
+    # A box's axis at yaw is a FLU body's x axis heading that way: the pose's projection.
+    turn = swap_attitude_frames(quaternion_from_euler(0.0, 0.0, p.yaw))
+    cube = {
+        "pose": pose(centre, turn),
+        "size": {"x": 2 * p.half_length, "y": 2 * p.half_width, "z": p.height},
+        "color": _OBSTACLE_COLOR,
+    }
+    return scene_entity(time_ns, p.label, cubes=[cube], metadata=metadata)
+
+
 class _Truth:
     """The world's truth as a LocationFix track and a path in metres from home; with its
-    first message, the world's obstacles."""
+    first message, the world's obstacles (for the plot and as a 3-D scene)."""
 
     def __init__(self, topic: str, home: Home, obstacles: Sequence[Obstacle]) -> None:
         self.topics = (topic,)
         self._home_alt = home.alt
-        self._obstacles: list[Converted] = []
-        if obstacles:
-            shapes = [
-                {
-                    "name": p.label,
-                    "height": p.height,
-                    "footprint": [{"east": e, "north": n, "up": 0.0} for n, e in p.corners()],
-                }
-                for p in placed(obstacles, home)
-            ]
-            self._obstacles.append(Converted(OBSTACLES_CHANNEL, OBSTACLES, {"obstacles": shapes}))
+        self._obstacles = placed(obstacles, home)
+
+    def _scene(self, time_ns: int) -> Iterator[Converted]:
+        if not self._obstacles:
+            return
+        shapes = [
+            {
+                "name": p.label,
+                "height": p.height,
+                "footprint": [{"east": e, "north": n, "up": 0.0} for n, e in p.corners()],
+            }
+            for p in self._obstacles
+        ]
+        yield Converted(OBSTACLES_CHANNEL, OBSTACLES, {"obstacles": shapes})
+        entities = [_obstacle_entity(time_ns, p) for p in self._obstacles]
+        yield Converted(SCENE_CHANNEL, SCENE_UPDATE, {"deletions": [], "entities": entities})
 
     def __call__(self, topic: str, time_ns: int, message: Any) -> Iterable[Converted]:
         m = message
-        once, self._obstacles = self._obstacles, []
+        once = list(self._scene(time_ns))
+        self._obstacles = []
         return (
             *once,
             Converted(
@@ -333,7 +372,8 @@ def mission_trace(
 
     ``links`` are the MAVLink topics decoded into channels (default: the uplink and the
     downlink); ``types`` the other topics' message types; ``obstacles`` the world's (their
-    footprints go to ``mcs/obstacles``, for the plot).
+    footprints go to ``mcs/obstacles``, for the plot, their solids to ``mcs/scene``, for the
+    3D panel).
     """
     links = links or (uplink, downlink)
     types = {**types, truth: Truth, uplink: MavlinkPacket, downlink: MavlinkPacket}

@@ -2,8 +2,9 @@
 
 A scenario tells recorders what its topics mean with ``trace_options()``: message types,
 converters that derive Foxglove well-known channels (``foxglove.LocationFix`` for the Map
-panel, ``foxglove.PoseInFrame`` for the 3D panel, ...) and local paths for the plot, topics
-that only make sense decoded, MAVLink links for a ``.tlog`` and the plots a layout shows.
+panel, ``foxglove.PoseInFrame`` and ``foxglove.SceneUpdate`` for the 3D panel, ...) and local
+paths for the plot, topics that only make sense decoded, MAVLink links for a ``.tlog`` and the
+plots a layout shows.
 """
 
 from __future__ import annotations
@@ -19,12 +20,15 @@ __all__ = [
     "LOCATION_CHANNEL",
     "PATH_CHANNEL",
     "POSE_CHANNEL",
+    "SCENE_CHANNEL",
     "Converted",
     "Converter",
     "TraceOptions",
     "local_path",
     "location_fix",
+    "pose",
     "pose_in_frame",
+    "scene_entity",
     "trace_options",
 ]
 
@@ -34,6 +38,7 @@ PATH_CHANNEL = "mcs/path"  # mcs/path/<label>: local east/north/up points, for p
 TRAJECTORY_CHANNEL = "mcs/trajectory"
 PLAN_CHANNEL = "mcs/plan"
 OBSTACLES_CHANNEL = "mcs/obstacles"
+SCENE_CHANNEL = "mcs/scene"  # 3-D entities (the obstacles) for the 3D panel
 ROBUSTNESS_CHANNEL = "mcs/robustness"
 # An attack's window: {"sensor", "model", "start", "end"} (s; end None: to the end of the run).
 ATTACK_CHANNEL = "mcs/attack"
@@ -145,15 +150,46 @@ def pose_message(
     frame_id: str = "map",
 ) -> dict[str, Any]:
     """A ``foxglove.PoseInFrame`` message; ``orientation`` is (w, x, y, z)."""
+    return {"timestamp": stamp(time_ns), "frame_id": frame_id, "pose": pose(position, orientation)}
+
+
+def pose(position: Sequence[float], orientation: Sequence[float]) -> dict[str, Any]:
+    """A ``foxglove.Pose``: ``position`` (x, y, z) and ``orientation`` (w, x, y, z)."""
     px, py, pz = position
     qw, qx, qy, qz = orientation
     return {
+        "position": {"x": float(px), "y": float(py), "z": float(pz)},
+        "orientation": {"x": float(qx), "y": float(qy), "z": float(qz), "w": float(qw)},
+    }
+
+
+def scene_entity(
+    time_ns: int,
+    entity_id: str,
+    *,
+    cubes: Sequence[Mapping[str, Any]] = (),
+    cylinders: Sequence[Mapping[str, Any]] = (),
+    metadata: Mapping[str, str] | None = None,
+    frame_id: str = "map",
+) -> dict[str, Any]:
+    """A ``foxglove.SceneEntity`` of ``cubes`` and ``cylinders`` (``foxglove.CubePrimitive``,
+    ``foxglove.CylinderPrimitive``) that stays until replaced; ``metadata`` as key-value pairs.
+    """
+    return {
         "timestamp": stamp(time_ns),
         "frame_id": frame_id,
-        "pose": {
-            "position": {"x": float(px), "y": float(py), "z": float(pz)},
-            "orientation": {"x": float(qx), "y": float(qy), "z": float(qz), "w": float(qw)},
-        },
+        "id": entity_id,
+        "lifetime": {"sec": 0, "nsec": 0},  # zero: forever
+        "frame_locked": False,
+        "metadata": [{"key": k, "value": v} for k, v in (metadata or {}).items()],
+        "arrows": [],
+        "cubes": [dict(c) for c in cubes],
+        "spheres": [],
+        "cylinders": [dict(c) for c in cylinders],
+        "lines": [],
+        "triangles": [],
+        "texts": [],
+        "models": [],
     }
 
 

@@ -1,4 +1,5 @@
-"""A Foxglove layout for a trace: map, 3D, the requirement's signals and margin, logs.
+"""A Foxglove layout for a trace: map, 3D (the vehicle's pose among the obstacles), the
+requirement's signals and margin, logs.
 
 The file is Foxglove's layout format (``Layout`` menu, ``Import from file...``): panel
 configurations by id and a tree of splits. Which panels appear depends on the channels the
@@ -95,11 +96,14 @@ def layout(
         }
         left.append("map!mcs")
     poses = by_schema.get("foxglove.PoseInFrame", [])
-    if poses:
+    scenes = by_schema.get("foxglove.SceneUpdate", [])  # the world's obstacles
+    if poses or scenes:
+        topics: dict[str, Any] = {t: {"visible": True} for t in scenes}
+        topics |= {t: {"visible": True, "type": "axis", "axisScale": 2} for t in poses}
         configs["3D!mcs"] = {
             "followTfFrame": "map",
             "followMode": "follow-pose",
-            "topics": {t: {"visible": True, "type": "axis", "axisScale": 2} for t in poses},
+            "topics": topics,
             "layers": {
                 "grid": {"visible": True, "layerId": "foxglove.Grid", "size": 100, "divisions": 20}
             },

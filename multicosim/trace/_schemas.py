@@ -24,6 +24,7 @@ __all__ = [
     "LOCATION_FIX",
     "LOG",
     "POSE_IN_FRAME",
+    "SCENE_UPDATE",
     "Schema",
     "foxglove_schema",
     "object_schema",
@@ -63,6 +64,7 @@ LOCATION_FIX = foxglove_schema("LocationFix")
 POSE_IN_FRAME = foxglove_schema("PoseInFrame")
 LOG = foxglove_schema("Log")
 GEOJSON = foxglove_schema("GeoJSON")
+SCENE_UPDATE = foxglove_schema("SceneUpdate")
 
 
 @functools.cache

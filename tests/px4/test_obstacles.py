@@ -19,7 +19,7 @@ from multicosim.mavlink.airframe import NONE_IRIS
 from multicosim.physics import Box, Cylinder
 from multicosim.px4.scenario import default_world
 from multicosim.search.requirements import Requirement
-from multicosim.trace import OBSTACLES_CHANNEL, Recorder, read_trace
+from multicosim.trace import OBSTACLES_CHANNEL, SCENE_CHANNEL, Recorder, read_trace
 from multicosim.trace._plot import figure
 
 HOME = px4.Home()
@@ -100,5 +100,9 @@ def test_the_trace_and_its_plot_show_the_obstacles(tmp_path: Path) -> None:
     assert all(
         math.hypot(p["north"], p["east"] - 40) == pytest.approx(2.0) for p in pole["footprint"]
     )
+    # The same obstacles in 3-D: a cube for the wall, a cylinder for the pole.
+    (scene,) = trace.topic(SCENE_CHANNEL)
+    entities = {e["id"]: (len(e["cubes"]), len(e["cylinders"])) for e in scene.data["entities"]}
+    assert entities == {"wall": (1, 0), "obstacle 1": (0, 1)}
     patches = {p.get_gid() for ax in figure(trace).axes for p in ax.patches}
     assert {"obstacle/wall", "obstacle/obstacle 1"} <= patches

@@ -16,13 +16,12 @@ import subprocess
 import sys
 import xml.etree.ElementTree as ET
 from collections.abc import Iterator
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
 import jsonschema
 import pytest
-from mcap.reader import make_reader
+from independent import read_independently, validate_foxglove
 from pymavlink import mavutil
 
 from multicosim.core.geo import EARTH_RADIUS
@@ -106,30 +105,6 @@ CASES = [
 ]
 
 
-def published_schema(name: str) -> dict[str, Any]:
-    """Foxglove's published schema ``foxglove.NAME``, as the files shipped with multicosim."""
-    text = resources.files("multicosim.trace").joinpath("foxglove", f"{name}.json").read_text()
-    schema: dict[str, Any] = json.loads(text)
-    return schema
-
-
-def read_independently(trace: Path) -> tuple[dict[str, Any], dict[str, list[tuple[int, Any]]]]:
-    """Schemas by topic and messages by topic, read with the mcap library's reader."""
-    schemas: dict[str, Any] = {}
-    messages: dict[str, list[tuple[int, Any]]] = {}
-    with open(trace, "rb") as stream:
-        reader = make_reader(stream)
-        for schema, channel, message in reader.iter_messages(log_time_order=True):
-            assert schema is not None
-            assert schema.encoding == "jsonschema"
-            assert channel.message_encoding == "json"
-            schemas[channel.topic] = (schema.name, json.loads(schema.data))
-            messages.setdefault(channel.topic, []).append(
-                (message.log_time, json.loads(message.data))
-            )
-    return schemas, messages
-
-
 @pytest.mark.parametrize(("test", "scenario"), CASES)
 def test_the_trace_of_a_failing_fixture_test_is_valid_foxglove_data(
     failing_run: tuple[Path, str], test: str, scenario: str
@@ -138,20 +113,7 @@ def test_the_trace_of_a_failing_fixture_test_is_valid_foxglove_data(
     trace = artifacts(path, test) / "trace.mcap"
     schemas, messages = read_independently(trace)
 
-    foxglove = {topic: name for topic, (name, _) in schemas.items() if name.startswith("foxglove.")}
-    validated = 0
-    for topic, name in foxglove.items():
-        published = published_schema(name.removeprefix("foxglove."))
-        embedded = dict(schemas[topic][1])
-        assert embedded.pop("$schema") == "https://json-schema.org/draft/2020-12/schema"
-        assert embedded == published, f"{topic}: the schema is not Foxglove's published one"
-        validator = jsonschema.Draft202012Validator(published)
-        for log_time, data in messages[topic]:
-            validator.validate(data)
-            if "timestamp" in data:
-                stamp = data["timestamp"]
-                assert stamp["sec"] * 10**9 + stamp["nsec"] == log_time
-            validated += 1
+    foxglove, validated = validate_foxglove(schemas, messages)
     # Every other channel declares its dialect and its first messages match its schema.
     for topic, (_, schema) in schemas.items():
         assert schema.get("$schema") == "https://json-schema.org/draft/2020-12/schema", topic
@@ -172,6 +134,9 @@ def test_the_trace_of_a_failing_fixture_test_is_valid_foxglove_data(
             assert schemas[f"px4/mavlink/down/{kind}"][0] == f"mavlink.common.{kind}"
         assert schemas["px4/mavlink/up/MISSION_ITEM_INT"][0] == "mavlink.common.MISSION_ITEM_INT"
         assert "px4/mavlink/down" not in schemas  # no channel of raw frames
+        # A world without obstacles: no obstacles, for the plot or the 3D panel.
+        assert not {"mcs/obstacles", "mcs/scene"} & set(schemas)
+        assert "foxglove.SceneUpdate" not in foxglove.values()
         heartbeat = messages["px4/mavlink/down/HEARTBEAT"][-1][1]
         assert heartbeat["autopilot"] == 12  # MAV_AUTOPILOT_PX4
         # The mission on the map: home and the waypoint, in GeoJSON's lon/lat order.
