@@ -34,8 +34,8 @@ from multicosim.physics import LIGHT, Box, Cylinder, Wind
 from multicosim.px4.scenario import default_world
 
 TARGET_PERCENT = {"low": 10.0, "medium": 5.0}
-PAIRS = {"low": 30, "medium": 6}
-QUICK_PAIRS = {"low": 6, "medium": 2}
+PAIRS = {"low": 30, "medium": 8}
+QUICK_PAIRS = {"low": 6, "medium": 1}
 
 # The mission flies home -> (30 N, 30 E) -> (85 N, 7 W): these stand 30 m or more beside it.
 OBSTACLES = (
