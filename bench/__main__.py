@@ -608,6 +608,8 @@ def hold_rows(data: dict[str, Any]) -> list[Row]:
         return (fmt(before) + " -> " if before else "") + fmt(after)
 
     group = "real PX4 in our world (10 m takeoff, 60 s hold)"
+    if "skipped" in data:
+        return [row(group, "real PX4 holding in our world", "skipped", limit=data["skipped"])]
     rows = [
         row(
             group,
