@@ -36,6 +36,7 @@ from _common import RESULTS, write_result
 
 TARGET_ALT = 10.0  # m
 HOLD = 60.0  # simulated seconds
+QUICK_HOLD = 10.0  # simulated seconds, with --quick
 SPEED = 6.0
 RATIOS = ("hgt_test_ratio", "pos_test_ratio", "vel_test_ratio", "mag_test_ratio")
 WALL_LIMIT = 900.0  # s
@@ -101,8 +102,8 @@ class Station:
         self.conn.mav.command_long_send(self.system, 1, cmd, 0, *p)
 
 
-def measure(binary: str) -> dict[str, Any]:
-    """Take off, hold 60 s: the numbers (see the module)."""
+def measure(binary: str, hold: float = HOLD) -> dict[str, Any]:
+    """Take off, hold ``hold`` s (60): the numbers (see the module)."""
     with tempfile.TemporaryFile() as out:
         cmd = [sys.executable, "-m", "multicosim", "px4", "sitl", "--px4-binary", binary]
         proc = subprocess.Popen(
@@ -123,13 +124,13 @@ def measure(binary: str) -> dict[str, Any]:
             if found is None:
                 raise RuntimeError("real PX4 did not start")
             instance, logs = int(found.group(1)), Path(found.group(2))
-            return _fly(Station(14540 + instance, instance + 1), logs)
+            return _fly(Station(14540 + instance, instance + 1), logs, hold)
         finally:
             os.killpg(proc.pid, signal.SIGTERM)  # PX4 too: it is in the group
             proc.wait(30)
 
 
-def _fly(s: Station, logs: Path) -> dict[str, Any]:
+def _fly(s: Station, logs: Path, hold: float) -> dict[str, Any]:
     s.command(512, 242)  # REQUEST_MESSAGE HOME_POSITION
     s.run(60, lambda: s.home)
     s.conn.mav.param_set_send(s.system, 1, b"MIS_TAKEOFF_ALT", TARGET_ALT, 9)
@@ -152,7 +153,7 @@ def _fly(s: Station, logs: Path) -> dict[str, Any]:
         rolls.append(s.att[0])
         pitches.append(s.att[1])
 
-    s.run(HOLD, each=sample)
+    s.run(hold, each=sample)
     s.command(21)  # land
     s.run(90, lambda: not s.mode[2])
     s.run(3)
@@ -168,7 +169,7 @@ def _fly(s: Station, logs: Path) -> dict[str, Any]:
 
     ulogs = sorted(logs.glob("**/*.ulg"), key=lambda p: p.stat().st_mtime)
     data = ULog(str(ulogs[-1]), ["estimator_status"]).get_dataset("estimator_status").data
-    inside = [i for i, t in enumerate(data["timestamp"]) if t0 <= t * 1e-6 <= t0 + HOLD]
+    inside = [i for i, t in enumerate(data["timestamp"]) if t0 <= t * 1e-6 <= t0 + hold]
     for name in RATIOS:
         values = [float(data[name][i]) for i in inside]
         out[name] = {"mean": statistics.fmean(values), "max": max(values)}
@@ -179,13 +180,18 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--px4-binary", default=os.environ.get("MCS_PX4_BINARY"))
     parser.add_argument("--output", type=Path, default=None)
+    parser.add_argument(
+        "--quick", action="store_true", help=f"hold {QUICK_HOLD:g} s (does it still run?)"
+    )
     args = parser.parse_args(argv)
     if not args.px4_binary:
-        print("skipped: no PX4 SITL binary (--px4-binary or MCS_PX4_BINARY)")
+        reason = "no PX4 SITL binary (--px4-binary or MCS_PX4_BINARY)"
+        print(f"skipped: {reason}")
+        write_result("hold", {"skipped": reason}, args.output)
         return 0
     previous = RESULTS / "hold.json"
     before = json.loads(previous.read_text()).get("before") if previous.exists() else None
-    after = measure(args.px4_binary)
+    after = measure(args.px4_binary, QUICK_HOLD if args.quick else HOLD)
     for label, r in (("before", before), ("after", after)):
         if r is None:
             continue

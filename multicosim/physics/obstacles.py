@@ -143,11 +143,7 @@ class Placed(NamedTuple):
         if self.radius:
             return math.hypot(dn, de) - self.radius
         c, s = math.cos(self.yaw), math.sin(self.yaw)
-        along = abs(dn * c + de * s) - self.half_length
-        across = abs(-dn * s + de * c) - self.half_width
-        if along <= 0.0 and across <= 0.0:
-            return max(along, across)
-        return math.hypot(max(along, 0.0), max(across, 0.0))
+        return _box_footprint(dn, de, c, s, self.half_length, self.half_width)
 
     def distance(self, north: float, east: float, up: float) -> float:
         """Signed 3-D distance (m) from a point to the solid (< 0 inside)."""
@@ -200,6 +196,18 @@ def placed(obstacles: Sequence[Obstacle], home: tuple[float, float, float]) -> l
         else:
             out.append(Placed(i, o.name, north, east, o.height, radius=o.radius))
     return out
+
+
+def _box_footprint(
+    dn: float, de: float, c: float, s: float, half_length: float, half_width: float
+) -> float:
+    """Signed horizontal distance to a box's footprint from a point ``dn``/``de`` (m) off its
+    centre; ``c``, ``s``: the cosine and sine of its yaw."""
+    along = abs(dn * c + de * s) - half_length
+    across = abs(-dn * s + de * c) - half_width
+    if along <= 0.0 and across <= 0.0:
+        return max(along, across)
+    return math.hypot(max(along, 0.0), max(across, 0.0))
 
 
 def _solid(flat: float, vertical: float) -> float:
@@ -278,6 +286,23 @@ class Proximity(NamedTuple):
 NO_OBSTACLES = Proximity()
 
 
+_Shape = tuple[int, float, float, float, float, float, float, float, float, float]
+_REORDER = 1.0  # m: how far the body moves before the obstacles are put in order again
+_SLACK = 1e-6  # m: far above rounding, so a bound skips no obstacle at the nearest distance
+
+
+def _measure(shape: _Shape, north: float, east: float, up: float) -> tuple[float, float]:
+    """(solid, footprint) signed distances from a point to a :class:`ClearanceMonitor` shape:
+    :meth:`Placed.distance` and :meth:`Placed.footprint_distance`, from worked-out numbers."""
+    _, n0, e0, height, c, s, half_length, half_width, radius, _ = shape
+    dn, de = north - n0, east - e0
+    if radius:
+        flat = math.hypot(dn, de) - radius
+    else:
+        flat = _box_footprint(dn, de, c, s, half_length, half_width)
+    return _solid(flat, max(-up, up - height)), flat
+
+
 class ClearanceMonitor:
     """Measures a body (a sphere of ``radius`` m) against the obstacles, latching the first hit."""
 
@@ -285,11 +310,30 @@ class ClearanceMonitor:
         self.obstacles = list(obstacles)
         self.radius = radius
         self.proximity = NO_OBSTACLES
-        # Each footprint's enclosing circle: an obstacle whose circle is further than the
-        # nearest solid so far cannot be nearer (a cheap test before the exact one).
-        self._reach = [
-            (p, p.radius or math.hypot(p.half_length, p.half_width)) for p in self.obstacles
+        # Per obstacle, what a measurement needs, worked out once: number, centre, height,
+        # the box's axis (cos, sin of its yaw) and half-sizes or the cylinder's radius, and
+        # the radius of the footprint's enclosing circle.
+        self._shapes: list[_Shape] = [
+            (
+                p.number,
+                p.north,
+                p.east,
+                p.height,
+                math.cos(p.yaw),
+                math.sin(p.yaw),
+                p.half_length,
+                p.half_width,
+                p.radius,
+                p.radius or math.hypot(p.half_length, p.half_width),
+            )
+            for p in self.obstacles
         ]
+        # The obstacles nearest first as seen from a reference point, with each one's lower
+        # bound there (the distance to its enclosing circle, never above its footprint's or
+        # its solid's). Within ``moved`` m of that point a bound drops by at most ``moved``:
+        # once one exceeds the nearest distance found, so does every later one.
+        self._ref = (math.inf, math.inf)
+        self._order: list[tuple[float, _Shape]] = []
 
     def update(
         self,
@@ -305,19 +349,23 @@ class ClearanceMonitor:
         Without ``contact`` (the analytic model) the body touches the nearest obstacle when
         its clearance is not positive.
         """
-        if not self.obstacles:
+        if not self._shapes:
             return self.proximity
-        best, nearest, flat = math.inf, -1, math.inf
-        for p, reach in self._reach:
-            # The solid's distance is never below its footprint's, which is never below
-            # the distance to its enclosing circle (so ``best`` bounds ``flat`` too).
-            if math.hypot(north - p.north, east - p.east) - reach >= best:
-                continue
-            f = p.footprint_distance(north, east)
-            flat = min(flat, f)
-            d = _solid(f, max(-up, up - p.height))
-            if d < best:
-                best, nearest = d, p.number
+        ref_north, ref_east = self._ref
+        moved = math.hypot(north - ref_north, east - ref_east)
+        if moved > _REORDER:
+            self._reorder(north, east)
+            moved = 0.0
+        best, flat, nearest = math.inf, math.inf, -1
+        for bound, shape in self._order:
+            if bound - moved > best + _SLACK:
+                break
+            d, f = _measure(shape, north, east, up)
+            if f < flat:
+                flat = f
+            # The same as measuring in order of number: the first obstacle at the minimum.
+            if d < best or (d == best and shape[0] < nearest):
+                best, nearest = d, shape[0]
         r = self.radius
         best -= r
         flat -= r
@@ -328,3 +376,10 @@ class ClearanceMonitor:
             hit, hit_time, hit_speed = touching, time, speed
         self.proximity = Proximity(best, flat, touching, hit, hit_time, hit_speed)
         return self.proximity
+
+    def _reorder(self, north: float, east: float) -> None:
+        self._ref = (north, east)
+        self._order = sorted(
+            ((math.hypot(north - s[1], east - s[2]) - s[9], s) for s in self._shapes),
+            key=lambda bound_shape: bound_shape[0],
+        )

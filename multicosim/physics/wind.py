@@ -174,10 +174,6 @@ class _SecondOrder:
         self.p_chol = _flat(np.linalg.cholesky(p + 1e-18 * np.eye(2)))
         self.c = (gain * float(c[0]), gain * float(c[1]))
 
-    def output(self, x: float, y: float) -> float:
-        """The filter's output for its state."""
-        return self.c[0] * x + self.c[1] * y
-
 
 _Filters = tuple[float, float, float, _SecondOrder, _SecondOrder]
 
@@ -215,40 +211,44 @@ class DrydenTurbulence:
         self._normals: list[float] = []
         self._next = 0
 
-    def _at(self, altitude: float) -> _Filters:
+    def step(self, altitude: float) -> tuple[float, float, float]:
+        """The next sample at ``altitude`` (m above home)."""
+        # This runs every period: the filters' lookup and the draw are written out here.
         key = round(altitude)
         f = self._filters.get(key)
         if f is None:
             f = self._filters[key] = _filters(self.w20, self.speed, self.dt, key)
-        return f
-
-    def _draw(self) -> tuple[float, float, float, float, float]:
+        sigma_u, decay, kick, lateral, vertical = f
         i = self._next
         if i + 5 > len(self._normals):
             self._normals = self.rng.standard_normal(5 * 1024).tolist()
             i = 0
         self._next = i + 5
-        n = self._normals
-        return (n[i], n[i + 1], n[i + 2], n[i + 3], n[i + 4])
-
-    def step(self, altitude: float) -> tuple[float, float, float]:
-        """The next sample at ``altitude`` (m above home)."""
-        sigma_u, decay, kick, lateral, vertical = self._at(altitude)
-        n0, n1, n2, n3, n4 = self._draw()
+        n0, n1, n2, n3, n4 = self._normals[i : i + 5]
         if self._u is None:
             # Start from the stationary distribution: the statistics hold from the first step.
             self._u = sigma_u * n0
             self._v = _apply(lateral.p_chol, n1, n2)
             self._w = _apply(vertical.p_chol, n3, n4)
         else:
+            # The state's transition plus the step's noise: ``Ad x + chol n`` of each filter.
             self._u = decay * self._u + sigma_u * kick * n0
-            v, w = self._v, self._w
-            dv, dw = _apply(lateral.chol, n1, n2), _apply(vertical.chol, n3, n4)
-            v = _apply(lateral.ad, v[0], v[1])
-            w = _apply(vertical.ad, w[0], w[1])
-            self._v = (v[0] + dv[0], v[1] + dv[1])
-            self._w = (w[0] + dw[0], w[1] + dw[1])
-        return (self._u, lateral.output(*self._v), vertical.output(*self._w))
+            v0, v1 = self._v
+            a, c = lateral.ad, lateral.chol
+            self._v = (
+                (a[0] * v0 + a[1] * v1) + (c[0] * n1 + c[1] * n2),
+                (a[2] * v0 + a[3] * v1) + (c[2] * n1 + c[3] * n2),
+            )
+            w0, w1 = self._w
+            a, c = vertical.ad, vertical.chol
+            self._w = (
+                (a[0] * w0 + a[1] * w1) + (c[0] * n3 + c[1] * n4),
+                (a[2] * w0 + a[3] * w1) + (c[2] * n3 + c[3] * n4),
+            )
+        v0, v1 = self._v
+        w0, w1 = self._w
+        lc, vc = lateral.c, vertical.c
+        return (self._u, lc[0] * v0 + lc[1] * v1, vc[0] * w0 + vc[1] * w1)
 
 
 def wind_generator(seed: int) -> np.random.Generator:

@@ -7,6 +7,8 @@ import math
 import msgspec
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 import multicosim as mcs
 from multicosim.core.geo import LocalProjection
@@ -68,6 +70,42 @@ def test_clearance_monitor_latches_the_first_hit() -> None:
     )
     later = monitor.update(3.0, 0.0, 0.0, 5.0, 1.0)
     assert (later.contact, later.hit, later.hit_time) == (-1, 0, 2.0)
+
+
+# A mirror-symmetric layout: on the axis east = 0 two obstacles are equally near (and
+# at 10 m north, both touch the body).
+LAYOUT = placed(
+    [
+        Cylinder(radius=2, height=10, north=10, east=-2.25),
+        Cylinder(radius=2, height=10, north=10, east=2.25),
+        Box(length=6, width=3, height=4, north=-12, east=-8, yaw=30),
+        Box(length=6, width=3, height=4, north=-12, east=8, yaw=-30),
+        Box(length=20, width=1, height=15, north=0, east=25, yaw=90),
+    ],
+    HOME,
+)
+POINT = st.tuples(
+    st.sampled_from([-30.0, -12.0, -6.0, -0.5, 0.0, 0.5, 6.0, 10.0, 12.0, 30.0])
+    | st.floats(-40, 40),
+    st.sampled_from([-8.0, -6.0, 0.0, 6.0, 8.0]) | st.floats(-40, 40),
+    st.sampled_from([0.0, 4.0, 10.0]) | st.floats(0, 20),
+)
+
+
+@given(st.lists(POINT, min_size=1, max_size=40))
+def test_clearance_monitor_measures_the_nearest_of_all_obstacles(
+    walk: list[tuple[float, float, float]],
+) -> None:
+    # However the body wanders (small steps or jumps), the monitor finds what measuring
+    # every obstacle finds: the smallest distances, the first obstacle at the nearest.
+    monitor = ClearanceMonitor(LAYOUT, 0.5)
+    for t, (north, east, up) in enumerate(walk):
+        got = monitor.update(float(t), north, east, up, 1.0)
+        solids = [p.distance(north, east, up) for p in LAYOUT]
+        nearest = min(solids)
+        assert got.clearance == nearest - 0.5
+        assert got.footprint == min(p.footprint_distance(north, east) for p in LAYOUT) - 0.5
+        assert got.contact == (solids.index(nearest) if nearest <= 0.5 else -1)
 
 
 SQUARE = Box(length=4, width=4, height=5, north=10, east=0)
