@@ -64,6 +64,11 @@ OPEN_DIFFERENCES: dict[str, str] = {
     "test_follow_target_rc_adjustment": (
         "real PX4 in our world leaves follow-target mode (MAVSDK: NOT_ACTIVE)"
     ),
+    "test_fly_forward_in_position_control": (
+        "real PX4, asked for position control right after it boots, is not armable within "
+        "the case's 45 s (49.5-50.1 s in three runs under load; it passed when run alone), "
+        "so it never flies; in altitude control it arms"
+    ),
 }
 SET_CURRENT_ONTO_DO_JUMP = (
     "PX4 v1.15 takes MISSION_SET_CURRENT's index verbatim and loads the DO_JUMP itself as the "
@@ -93,6 +98,12 @@ EXPECTED_FAILURES: dict[str, tuple[tuple[str, ...], str, bool]] = {
         "real PX4 in our world now holds 10.0 m (0.015 m at most off over 60 s), but the case "
         "takes its reference when first within 0.35 m, still climbing (about 9.75 m): the "
         "hold is then 0.25-0.26 m from it, at the edge of its 0.25 m",
+        False,
+    ),
+    "test_fly_forward_in_position_control": (
+        REAL,
+        "real PX4 in our world, put in position control right after boot, may not be armable "
+        "within the case's 45 s (see OPEN_DIFFERENCES)",
         False,
     ),
     "test_follow_target_position_streaming": (
