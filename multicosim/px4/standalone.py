@@ -27,9 +27,36 @@ from .autopilot.firmware import Autopilot
 from .scenario import PX4Component, WorldComponent
 from .sitl import SITL
 
-__all__ = ["run_real_sitl", "run_sitl"]
+__all__ = ["paced_params", "run_real_sitl", "run_sitl"]
 
 log = logging.getLogger(__name__)
+
+
+def paced_params(speed: float) -> dict[str, float]:
+    """The loss timeouts PX4 gives a simulation paced at ``speed`` x real time.
+
+    Clients on the wall clock (MAVSDK, QGroundControl, a joystick) send as often per wall
+    second at any speed, so PX4's SITL start-up (etc/init.d-posix/rcS, when
+    PX4_SIM_SPEED_FACTOR is set) lengthens, in simulated seconds, the timeouts that judge
+    them: at 10x, a client that pauses 60 ms is not taken for lost. Both autopilots get
+    them, within each parameter's range (a longer timeout than its maximum already outlasts
+    any pause); parameters a user sets win.
+    """
+    from .autopilot.params import table
+
+    if speed == 1.0:
+        return {}
+    params = table()
+    out = {}
+    for name, per_unit in (
+        ("COM_DL_LOSS_T", 10.0),
+        ("COM_RC_LOSS_T", 0.5),
+        ("COM_OF_LOSS_T", 0.5),
+        ("COM_OBC_LOSS_T", 5.0),
+    ):
+        high = params[name].max
+        out[name] = per_unit * speed if high is None else min(per_unit * speed, high)
+    return out
 
 
 def run_sitl(
@@ -52,7 +79,8 @@ def run_sitl(
     """
     world = world or MuJoCo()
     links = links if links is not None else [Link(GCS_PORT, 18570), Link(API_PORT, 14580)]
-    px4 = PX4Component(world, fidelity, params=dict(params or {}), process=False)
+    params = {**paced_params(speed), **(params or {})}
+    px4 = PX4Component(world, fidelity, params=params, process=False)
     # PX4's API-link streams: what MAVSDK and ground stations get from real PX4 SITL.
     spec = msgspec.structs.replace(px4.spec, streams="onboard")
     sim = ProcessSimulator(seed=seed, realtime=speed)
@@ -127,7 +155,8 @@ def run_real_sitl(
 
     world = world or MuJoCo()
     world = dataclasses.replace(world, period=sitl_period(world))
-    component = PX4Component(world, "medium", params=dict(params or {}), firmware=sitl)
+    params = {**paced_params(speed), **(params or {})}
+    component = PX4Component(world, "medium", params=params, firmware=sitl)
     params = component.sitl_params()
     sim: Any
     if sitl.binary is None:

@@ -5,7 +5,8 @@ in a thread, over loopback UDP), then stalls its stream on purpose for a few sim
 seconds, measured on the autopilot's own clock (its time_boot_ms). PX4 v1.15 declares
 offboard lost after COM_OF_LOSS_T without a setpoint and falls back to COM_OBL_RC_ACT's
 mode (0: Position; without sticks the vehicle holds where it is); when the setpoints come
-back, the user's offboard mode resumes (the fallback clears with its condition).
+back, the user's offboard mode resumes (the fallback clears with its condition). Paced at
+8x real time, COM_OF_LOSS_T is PX4's SITL value for that speed (``paced_params``).
 """
 
 from __future__ import annotations
@@ -17,10 +18,12 @@ from typing import Any
 import pytest
 
 from multicosim.mavlink.dialect import Mode, decode_custom_mode
+from multicosim.px4.standalone import paced_params
 
 mavutil = pytest.importorskip("pymavlink.mavutil")
 
 SPEED = 8.0
+LOSS_T = paced_params(SPEED)["COM_OF_LOSS_T"]  # simulated seconds without a setpoint: lost
 POSITION_ONLY = 0b0000_1111_1111_1000  # SET_POSITION_TARGET type_mask: position (and yaw)
 
 
@@ -107,11 +110,11 @@ def test_a_stalled_setpoint_stream_holds_position_and_offboard_resumes(client: C
     assert c.armed
     _offboard_at(c, (5.0, 0.0, -3.0), 3.0)  # on the way to 5 m north
     stalled_at = c.pos
-    # The stream stalls for 6 simulated seconds (COM_OF_LOSS_T is 1 s).
-    stall = c.run(6.0, None)
+    # The stream stalls for longer than COM_OF_LOSS_T.
+    stall = c.run(LOSS_T + 4.0, None)
     lost = [t for t, mode, _ in stall if mode == Mode.POSCTL.value]
     assert lost, f"offboard was never declared lost: {[m for _, m, _ in stall][-5:]}"
-    assert lost[0] - stall[0][0] < 2.0, "the fallback came later than COM_OF_LOSS_T"
+    assert LOSS_T - 0.5 < lost[0] - stall[0][0] < LOSS_T + 1.0, "not lost after COM_OF_LOSS_T"
     # Without sticks, Position mode holds: the vehicle brakes and stays near the stall point.
     for _, _, pos in stall:
         assert math.dist(pos, stalled_at) < 4.0, (pos, stalled_at)
@@ -122,15 +125,15 @@ def test_a_stalled_setpoint_stream_holds_position_and_offboard_resumes(client: C
 
 
 def test_late_setpoints_within_the_loss_time_keep_offboard(client: Client) -> None:
-    # Setpoints 0.8 simulated seconds apart (a loaded client): never lost, never flown off.
+    # Setpoints 0.8 COM_OF_LOSS_T apart (a loaded client): never lost, never flown off.
     c = client
     c.run(15.0, None)
     c.command(400, 1)
     c.run(0.5, (0.0, 0.0, -3.0))
     _offboard_at(c, (0.0, 0.0, -3.0), 10.0)
     seen = []
-    for _ in range(20):
+    for _ in range(8):
         c.setpoint(0.0, 5.0, -3.0)
-        seen += c.run(0.8, None)
+        seen += c.run(0.8 * LOSS_T, None)
     assert all(mode == Mode.OFFBOARD.value for _, mode, _ in seen)
     assert math.dist(seen[-1][2], (0.0, 5.0, -3.0)) < 1.0, seen[-1]

@@ -5,7 +5,9 @@ PX4 tests its releases with MAVSDK test cases (``test/mavsdk_tests`` in PX4-Auto
 of the mission, basics, offboard, manual, failsafe, failure-injection, follow-me, goto,
 RTL and DO_JUMP files, with PX4's steps, tolerances and timeouts; timeouts and sleeps are simulated
 seconds, measured on the autopilot's clock (its ATTITUDE_QUATERNION timestamps, as PX4's
-tester does), so a loaded machine changes nothing but the wall time.
+tester does), so a loaded machine changes nothing but the wall time. They run at the speed
+factor PX4's CI runs them at (``SPEED``), which decides how often the tester looks and how
+long PX4 waits for a client's sticks and setpoints.
 
 Each case flies the built-in autopilot at medium fidelity (``multicosim px4 sitl``) and,
 with ``--mcs-px4-binary``, real PX4 SITL flying the same MuJoCo world: both standalone, with
@@ -31,13 +33,20 @@ from pytest_multicosim.px4 import real_px4
 pytest.importorskip("mavsdk.asyncio", reason="mavsdk (pip install mavsdk) not installed")
 
 MAV_AUTOPILOT_INVALID = 8  # a ground station's heartbeat
-SPEED = 6.0  # simulated seconds per wall second (PX4_SIM_SPEED_FACTOR)
+# Simulated seconds per wall second (PX4_SIM_SPEED_FACTOR): the speed factor PX4's CI runs this
+# suite at (.github/workflows/sitl_tests.yml at v1.15: `mavsdk_test_runner.py --speed-factor
+# 10`). What a case sees depends on it: PX4's tester looks at a condition every timeout/100
+# *wall* seconds (poll_condition_with_timeout sleeps with std::this_thread), every timeout/10
+# simulated seconds at that speed, and PX4's rcS scales COM_RC_LOSS_T and COM_OF_LOSS_T with it
+# (0.5 s each per unit of speed), so that stick and setpoint streams sent on the wall clock
+# are not taken for lost.
+SPEED = 10.0
 API_PORT = 14540
 WALL_SLACK = 120.0  # wall seconds beyond a simulated timeout before a stalled run is failed
 
 pytestmark = pytest.mark.xdist_group("px4_suite")
 
-BOTH, REAL = ("builtin", "sitl"), ("sitl",)
+BOTH = ("builtin", "sitl")
 NO_GOTO_MODE = (
     "PX4 v1.15 has no Goto flight mode (AUTO sub mode 21 came in a later PX4): DO_REPOSITION "
     "flies there in Hold"
@@ -47,37 +56,20 @@ FAILURE_INJECTION_ENABLED = (
     "is injected, not refused as disabled"
 )
 # Cases whose outcome may differ between the two autopilots, each with the PX4 v1.15 source
-# that explains it. Any other difference fails the run (tests/px4/conftest.py compares the
+# that explains it. Any other difference fails the run (tests/px4_agreement.py compares the
 # outcomes of every case flown on both).
 KNOWN_DIFFERENCES: dict[str, str] = {}
 # Cases whose outcome differs and whose cause is not found yet: what was measured. They do not
 # fail the run, and the agreement summary lists them, so each stays in sight until explained.
-OPEN_DIFFERENCES: dict[str, str] = {
-    "test_takeoff_and_hold_position": (
-        "real PX4 holds 10.0 m, but the case takes its reference when first within 0.35 m, "
-        "still climbing (about 9.75 m): the hold is then 0.25-0.26 m from it, at the edge of "
-        "its 0.25 m; the built-in autopilot arrives so that it passes"
-    ),
-    "test_follow_target_position_streaming": (
-        "real PX4 in our world follows from the side (follow angle off by more than 11 m)"
-    ),
-    "test_follow_target_rc_adjustment": (
-        "real PX4 in our world leaves follow-target mode (MAVSDK: NOT_ACTIVE)"
-    ),
-    "test_fly_forward_in_position_control": (
-        "real PX4, asked for position control right after it boots, is not armable within "
-        "the case's 45 s (49.5-50.1 s in three runs under load; it passed when run alone), "
-        "so it never flies; in altitude control it arms"
-    ),
-}
+OPEN_DIFFERENCES: dict[str, str] = {}
 SET_CURRENT_ONTO_DO_JUMP = (
     "PX4 v1.15 takes MISSION_SET_CURRENT's index verbatim and loads the DO_JUMP itself as the "
     "current item (navigator/mission_base.cpp, MissionBase::updateMavlinkMission: "
     "`_mission = new_mission;` then set_mission_items()): an idle setpoint, the mission waits "
     "in the air; later PX4 resolves the jump, which this case was written for"
 )
-# Cases that fail on real PX4 v1.15.4 flying our world, and why; strict where the built-in
-# autopilot fails them for the same reason (real PX4's own runs vary: its modules are threads).
+# Cases that fail on real PX4 v1.15.4 flying our world, and why; strict where the failure is
+# certain (real PX4's own runs vary: its modules are threads).
 EXPECTED_FAILURES: dict[str, tuple[tuple[str, ...], str, bool]] = {
     "test_goto_reposition_flies_to_and_holds_at_the_target": (BOTH, NO_GOTO_MODE, False),
     "test_goto_pausing_mid_reposition_switches_to_hold": (BOTH, NO_GOTO_MODE, False),
@@ -92,29 +84,6 @@ EXPECTED_FAILURES: dict[str, tuple[tuple[str, ...], str, bool]] = {
         BOTH,
         SET_CURRENT_ONTO_DO_JUMP,
         True,
-    ),
-    "test_takeoff_and_hold_position": (
-        REAL,
-        "real PX4 in our world now holds 10.0 m (0.015 m at most off over 60 s), but the case "
-        "takes its reference when first within 0.35 m, still climbing (about 9.75 m): the "
-        "hold is then 0.25-0.26 m from it, at the edge of its 0.25 m",
-        False,
-    ),
-    "test_fly_forward_in_position_control": (
-        REAL,
-        "real PX4 in our world, put in position control right after boot, may not be armable "
-        "within the case's 45 s (see OPEN_DIFFERENCES)",
-        False,
-    ),
-    "test_follow_target_position_streaming": (
-        REAL,
-        "real PX4 in our world follows from the side (follow angle off by more than 11 m)",
-        False,
-    ),
-    "test_follow_target_rc_adjustment": (
-        REAL,
-        "real PX4 in our world leaves follow-target mode (MAVSDK: NOT_ACTIVE)",
-        False,
     ),
 }
 
@@ -205,13 +174,14 @@ class Tester:
     ) -> bool:
         """Whether ``cond`` came true within ``timeout`` simulated seconds (REQUIRE if fail).
 
-        As PX4's tester, it looks 100 times per timeout (a sleep is looked at every 1 ms).
+        As PX4's tester, it looks every ``timeout / 100`` wall seconds at ``SPEED``: ten times
+        per timeout, on the autopilot's clock (a sleep is looked at every 1 ms).
         """
         while self._sim_us == 0:
             await asyncio.sleep(0.01)
         start = self.now
         wall = time.monotonic() + timeout / SPEED + WALL_SLACK
-        step = timeout / 100 if what else 0.001
+        step = timeout * SPEED / 100 if what else 0.001
         while True:
             if await cond():
                 return True

@@ -399,6 +399,15 @@ def test_standalone_sitl_serves_px4s_usual_ports(
             assert version is not None
             v = version.flight_sw_version
             assert (v >> 24, v >> 16 & 0xFF, v >> 8 & 0xFF) == (1, 15, 4)
+            # Paced at 5x, PX4 waits 5x as long (simulated) for a ground station's sticks.
+            answer = None
+            for _ in range(10):
+                gcs.mav.param_request_read_send(gcs.target_system, 1, b"COM_RC_LOSS_T", -1)
+                answer = gcs.recv_match(type="PARAM_VALUE", blocking=True, timeout=3)
+                if answer is not None and answer.param_id == "COM_RC_LOSS_T":
+                    break
+            assert answer is not None
+            assert answer.param_value == pytest.approx(2.5)
         finally:
             gcs.close()
         proc.send_signal(signal.SIGTERM)
