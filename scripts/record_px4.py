@@ -4,9 +4,11 @@
 
 Runs ``multicosim px4 sitl --px4-binary BINARY`` (real PX4 flying our MuJoCo world, its own
 MAVLink links), asks it every question of :func:`multicosim.px4.conformance.record` on its
-API link, reads its parameter metadata over MAVLink FTP, and writes the answers. The
-built-in autopilot takes its parameter table and stream rates from that file, and
-tests/px4/test_conformance.py checks its answers against it.
+API link (on the ground, then flying: takeoff, DO_REPOSITION, offboard), reads its parameter
+metadata over MAVLink FTP, and writes the answers. The built-in autopilot takes its parameter
+table and stream rates from that file, and tests/px4/test_conformance.py checks its answers
+against it. A stalled or exited PX4 ends the recording with an error and PX4's output; PX4
+is stopped whatever happens (Ctrl-C and SIGTERM included).
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ import time
 from pathlib import Path
 
 from multicosim.px4 import conformance
+from multicosim.px4.standalone import paced_params
 
 API_PORT = 14540  # where PX4's API link sends, plus its instance number
 PX4_API_PORT = 14580  # where it listens
@@ -41,6 +44,9 @@ def main() -> int:
     )
     parser.add_argument("--log", default=None, help="keep the SITL's output in this file")
     args = parser.parse_args()
+    # A SIGTERM (a time limit's) unwinds like Ctrl-C, so that PX4 is stopped below.
+    signal.signal(signal.SIGTERM, signal.default_int_handler)
+    started = time.monotonic()
     with open(args.log, "w+b") if args.log else tempfile.TemporaryFile() as log:
         proc = subprocess.Popen(
             [
@@ -61,20 +67,44 @@ def main() -> int:
         try:
             instance = _instance(proc, log)
             data = conformance.record(
-                API_PORT + instance, peer=PX4_API_PORT + instance, metadata=True
+                API_PORT + instance,
+                peer=PX4_API_PORT + instance,
+                metadata=True,
+                alive=lambda: proc.poll() is None,
             )
         except BaseException:
             log.seek(0)
             print(log.read().decode(errors="replace")[-3000:], file=sys.stderr)
             raise
         finally:
-            with contextlib.suppress(ProcessLookupError):  # it may have exited on its own
-                os.killpg(proc.pid, signal.SIGTERM)
-            proc.wait(30)
+            _stop(proc)
+    # PX4's SITL start-up numbers the vehicle after its instance (etc/init.d-posix/rcS:
+    # MAV_SYS_ID and UXRCE_DDS_KEY are instance + 1): the file keeps a lone PX4's, instance 0's.
+    # (_HASH_CHECK, ground stations' cache key over all values, stays the instance's.)
+    for name in ("MAV_SYS_ID", "UXRCE_DDS_KEY"):
+        data["params"][name]["value"] = 1
+    # Paced at --speed, PX4 reports the loss timeouts its start-up lengthens for that speed
+    # (paced_params); the file keeps what it has at real time, its defaults.
+    for name in paced_params(args.speed):
+        data["params"][name]["value"] = data["params"][name]["default"]
     data = {"px4": conformance.PX4_VERSION, **data}
     Path(args.out).write_text(json.dumps(data, indent=1, sort_keys=False) + "\n")
-    print(f"wrote {args.out}: {data['count']} parameters, {len(data['streams'])} streams")
+    print(
+        f"wrote {args.out}: {data['count']} parameters, {len(data['streams'])} streams "
+        f"({time.monotonic() - started:.0f} s)"
+    )
     return 0
+
+
+def _stop(proc: subprocess.Popen[bytes]) -> None:
+    """Stop the SITL and everything it started (its process group), killed if it lingers."""
+    with contextlib.suppress(ProcessLookupError):  # it may have exited on its own
+        os.killpg(proc.pid, signal.SIGTERM)
+    with contextlib.suppress(subprocess.TimeoutExpired):
+        proc.wait(30)
+    with contextlib.suppress(ProcessLookupError):  # what is left of its group, if anything
+        os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait(30)
 
 
 def _instance(proc: subprocess.Popen[bytes], log: object) -> int:

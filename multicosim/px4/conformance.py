@@ -4,9 +4,11 @@
 the same questions in the same order and records its answers: its heartbeat, the messages
 it streams and their rates, its parameters (names, types, values; with ``metadata`` PX4's
 own parameter metadata, read over MAVLink FTP: defaults and ranges), its answer to each
-command in each state, its flight modes, and the mission protocol (mission items in the
+command in each state, its flight modes, the mission protocol (mission items in the
 mission frame, DO_JUMP and MISSION_SET_CURRENT onto it, geofence and rally lists, the legacy
-MISSION_REQUEST).
+MISSION_REQUEST), and what flying does: a takeoff's altitude held, DO_REPOSITION in Hold,
+offboard setpoints that stop and one far away (:mod:`.conformance_flight`). The questions
+are asked with a :class:`~.probe.Probe`, on the autopilot's simulated clock.
 
 ``scripts/record_px4.py`` records real PX4 SITL flying our world into
 ``multicosim/px4/data/px4-<version>.json``; the built-in autopilot's parameter table and
@@ -19,9 +21,7 @@ from __future__ import annotations
 import json
 import lzma
 import math
-import socket
-import time
-from collections import Counter
+from collections.abc import Callable
 from importlib import resources
 from typing import Any
 
@@ -35,8 +35,6 @@ from ..mavlink.dialect import (
     FRAME_GLOBAL_INT,
     FRAME_GLOBAL_REL_INT,
     FRAME_MISSION,
-    MAV_AUTOPILOT_INVALID,
-    MAV_TYPE_GCS,
     MSG_AUTOPILOT_VERSION,
     MSG_FLIGHT_INFORMATION,
     MSG_GPS_GLOBAL_ORIGIN,
@@ -46,6 +44,9 @@ from ..mavlink.dialect import (
     MSG_PROTOCOL_VERSION,
     Mode,
 )
+from .conformance_flight import differences as flight_differences
+from .conformance_flight import flight
+from .probe import Probe, int_bytes, param_name, param_value
 
 __all__ = ["PX4_VERSION", "differences", "load", "record"]
 
@@ -55,149 +56,7 @@ WINDOW = 20.0  # simulated seconds of streams counted for the rates
 MSG_UNKNOWN = 9999  # a message id no dialect has
 
 
-def _command_id(name: str) -> int:
-    """MAV_CMD_``name``'s number (``NAV_TAKEOFF``, ``COMPONENT_ARM_DISARM``, ...)."""
-    from ..mavlink.dialect import dialect
-
-    return int(getattr(dialect(), f"MAV_CMD_{name}"))
-
-
-class _Link:
-    """A pymavlink UDP link with the autopilot's simulated clock (its time_boot_ms)."""
-
-    def __init__(self, port: int, timeout: float, peer: int | None = None) -> None:
-        from pymavlink import mavutil
-
-        from ..mavlink.dialect import dialect
-
-        # pymavlink shares the port (SO_REUSEADDR): another listener there would take some
-        # of the autopilot's datagrams. Refuse a port that is taken.
-        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
-            try:
-                probe.bind(("127.0.0.1", port))
-            except OSError as exc:
-                raise RuntimeError(f"UDP port {port} is in use by another program") from exc
-        self.conn: Any = mavutil.mavlink_connection(
-            f"udpin:127.0.0.1:{port}", source_system=245, source_component=190
-        )
-        # MAVLink 2 with the common dialect (mavutil's default is MAVLink 1, which has no
-        # mission_type: fence and rally lists would arrive as missions).
-        self.conn.mav = dialect().MAVLink(self.conn, srcSystem=245, srcComponent=190)
-        self.conn.mav.robust_parsing = True
-        # A sped-up autopilot streams thousands of datagrams a second: a deep receive buffer
-        # keeps its answers from being dropped while this reader is descheduled.
-        self.conn.port.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 8 << 20)
-        self.mav: Any = self.conn.mav
-        self.peer = peer
-        self._beat = 0.0
-        self.sim_ms = 0
-        self.timeout = timeout
-        self.counts: Counter[str] = Counter()
-        self.last: dict[str, Any] = {}
-        self.texts: list[str] = []
-
-    def close(self) -> None:
-        self.conn.close()
-
-    def recv(self, wall: float = 0.2) -> Any:
-        if self.peer is not None and time.monotonic() - self._beat > 0.5:
-            # A ground station's heartbeat to the autopilot's own port: PX4 then answers
-            # this socket whatever its link was set to send to.
-            self._beat = time.monotonic()
-            beat = self.mav.heartbeat_encode(MAV_TYPE_GCS, MAV_AUTOPILOT_INVALID, 0, 0, 4)
-            self.conn.port.sendto(beat.pack(self.mav), ("127.0.0.1", self.peer))
-        return self._note(self.conn.recv_match(blocking=True, timeout=wall))
-
-    def catch_up(self, wall: float = 2.0) -> None:
-        """Read what is already waiting (for up to ``wall`` seconds).
-
-        Called before a question: a reader that has fallen behind a sped-up autopilot would
-        otherwise time the answer's window from its backlog's clock, not from the question.
-        """
-        limit = time.monotonic() + wall
-        while time.monotonic() < limit:
-            m = self.conn.recv_match(blocking=False)
-            if m is None:
-                return
-            self._note(m)
-
-    def _note(self, m: Any) -> Any:
-        """``m`` after counting it and advancing the clock; None for what is not the autopilot's."""
-        if m is None:
-            return None
-        name = m.get_type()
-        if name == "BAD_DATA" or m.get_srcSystem() != 1:
-            return None
-        t = getattr(m, "time_boot_ms", None)
-        if isinstance(t, int) and t > self.sim_ms:
-            self.sim_ms = t
-        self.counts[name] += 1
-        self.last[name] = m
-        if name == "STATUSTEXT":
-            self.texts.append(m.text)
-        return m
-
-    def wait(self, ok: Any, sim_s: float) -> Any:
-        """The first message for which ``ok(m)``, within ``sim_s`` simulated seconds."""
-        start = self.sim_ms or None  # the clock starts with the first message
-        wall_deadline = time.monotonic() + self.timeout
-        while time.monotonic() < wall_deadline:
-            m = self.recv()
-            if m is not None and ok(m):
-                return m
-            if start is None:
-                start = self.sim_ms or None
-            elif self.sim_ms - start >= sim_s * 1000:
-                break
-        return None
-
-    def sleep(self, sim_s: float) -> None:
-        self.wait(lambda m: False, sim_s)
-
-    def command(self, name: str, *params: float, sim_s: float = 1.0) -> int | None:
-        cmd = _command_id(name)
-        p = [*params, *[0.0] * (7 - len(params))]
-        for _ in range(3):
-            self.catch_up()
-            self.mav.command_long_send(1, 1, cmd, 0, *p)
-            ack = self.wait(lambda m: m.get_type() == "COMMAND_ACK" and m.command == cmd, sim_s)
-            if ack is not None:
-                return int(ack.result)
-        return None
-
-    def command_int(self, name: str, frame: int, *params: float, sim_s: float = 1.0) -> int | None:
-        cmd = _command_id(name)
-        p = [*params, *[0.0] * (7 - len(params))]
-        self.catch_up()
-        self.mav.command_int_send(
-            1, 1, frame, cmd, 0, 0, p[0], p[1], p[2], p[3], int(p[4]), int(p[5]), p[6]
-        )
-        ack = self.wait(lambda m: m.get_type() == "COMMAND_ACK" and m.command == cmd, sim_s)
-        return None if ack is None else int(ack.result)
-
-    def custom_mode(self) -> int:
-        hb = self.wait(lambda m: m.get_type() == "HEARTBEAT", 2.0)
-        return -1 if hb is None else int(hb.custom_mode)
-
-
-def _param_value(m: Any) -> float | int:
-    """A PARAM_VALUE's value as PX4 means it (integers are sent bytewise in the float)."""
-    import struct
-
-    if m.param_type in (1, 2, 3, 4, 5, 6):
-        raw = struct.pack("<f", m.param_value)
-        fmt = {1: "<B", 2: "<b", 3: "<H", 4: "<h", 5: "<I", 6: "<i"}[m.param_type]
-        size = struct.calcsize(fmt)
-        return int(struct.unpack(fmt, raw[:size])[0])
-    return float(m.param_value)
-
-
-def _name(raw: Any) -> str:
-    text = raw.decode(errors="replace") if isinstance(raw, bytes) else str(raw)
-    return text.split("\0", 1)[0]
-
-
-def _streams(link: _Link) -> dict[str, float]:
+def _streams(link: Probe) -> dict[str, float]:
     link.counts.clear()
     link.wait(lambda m: False, 1.0)  # settle on a clock
     link.counts.clear()
@@ -212,11 +71,11 @@ def _streams(link: _Link) -> dict[str, float]:
     return rates
 
 
-def _params(link: _Link) -> dict[str, Any]:
+def _params(link: Probe) -> dict[str, Any]:
     values: dict[int, tuple[str, int, Any]] = {}
     count = None
     link.catch_up()
-    link.mav.param_request_list_send(1, 1)
+    link.mav.param_request_list_send(*link.target)
     for _ in range(4):
         # Until all have come, or none for 2 s (simulated).
         while count is None or len(values) < count:
@@ -224,51 +83,37 @@ def _params(link: _Link) -> dict[str, Any]:
             if m is None:
                 break
             count = m.param_count
-            values[m.param_index] = (_name(m.param_id), int(m.param_type), _param_value(m))
+            values[m.param_index] = (param_name(m.param_id), int(m.param_type), param_value(m))
         if count is not None and len(values) >= count:
             break
         for i in range(count or 0):
             if i not in values:
-                link.mav.param_request_read_send(1, 1, b"", i)
+                link.mav.param_request_read_send(*link.target, b"", i)
     params = {name: {"type": t, "value": v} for name, t, v in values.values()}
     return {"count": count, "params": dict(sorted(params.items()))}
 
 
-def _param_answers(link: _Link) -> dict[str, Any]:
+def _param_answers(link: Probe) -> dict[str, Any]:
     """How reads and sets of known and unknown names are answered."""
 
-    def answer(send: Any) -> Any:
-        link.texts.clear()
-        for _ in range(3):  # as ground stations do: a datagram may be lost on a busy host
-            link.catch_up()
-            send()
-            m = link.wait(lambda m: m.get_type() in ("PARAM_VALUE", "PARAM_ERROR"), 1.0)
-            if m is not None:
-                break
-        else:
-            return {"reply": None}
-        out: dict[str, Any] = {"reply": m.get_type(), "name": _name(m.param_id)}
-        if m.get_type() == "PARAM_VALUE":
-            out["value"] = _param_value(m)
-        return out
+    def answer(send: Callable[[], None]) -> dict[str, Any]:
+        return link.param(send)
 
-    import struct
-
-    as_int = struct.unpack("<f", struct.pack("<i", 7))[0]
-    mav = link.mav
+    as_int = int_bytes(7)
+    mav, to = link.mav, link.target
     return {
-        "read_unknown": answer(lambda: mav.param_request_read_send(1, 1, b"NO_SUCH_PARAM", -1)),
-        "set_unknown": answer(lambda: mav.param_set_send(1, 1, b"NO_SUCH_PARAM", 1.0, 9)),
-        "read_by_name": answer(lambda: mav.param_request_read_send(1, 1, b"NAV_ACC_RAD", -1)),
-        "set_float": answer(lambda: mav.param_set_send(1, 1, b"MPC_XY_CRUISE", 6.0, 9)),
-        "set_out_of_range": answer(lambda: mav.param_set_send(1, 1, b"MPC_XY_CRUISE", 500.0, 9)),
-        "set_int": answer(lambda: mav.param_set_send(1, 1, b"COM_RCL_EXCEPT", as_int, 6)),
-        "restore_int": answer(lambda: mav.param_set_send(1, 1, b"COM_RCL_EXCEPT", 0.0, 6)),
-        "restore_float": answer(lambda: mav.param_set_send(1, 1, b"MPC_XY_CRUISE", 5.0, 9)),
+        "read_unknown": answer(lambda: mav.param_request_read_send(*to, b"NO_SUCH_PARAM", -1)),
+        "set_unknown": answer(lambda: mav.param_set_send(*to, b"NO_SUCH_PARAM", 1.0, 9)),
+        "read_by_name": answer(lambda: mav.param_request_read_send(*to, b"NAV_ACC_RAD", -1)),
+        "set_float": answer(lambda: mav.param_set_send(*to, b"MPC_XY_CRUISE", 6.0, 9)),
+        "set_out_of_range": answer(lambda: mav.param_set_send(*to, b"MPC_XY_CRUISE", 500.0, 9)),
+        "set_int": answer(lambda: mav.param_set_send(*to, b"COM_RCL_EXCEPT", as_int, 6)),
+        "restore_int": answer(lambda: mav.param_set_send(*to, b"COM_RCL_EXCEPT", 0.0, 6)),
+        "restore_float": answer(lambda: mav.param_set_send(*to, b"MPC_XY_CRUISE", 5.0, 9)),
     }
 
 
-def _commands(link: _Link) -> dict[str, Any]:
+def _commands(link: Probe) -> dict[str, Any]:
     """Answers to commands on the ground, disarmed, in position hold."""
     nan = math.nan
     out: dict[str, Any] = {}
@@ -302,19 +147,23 @@ def _commands(link: _Link) -> dict[str, Any]:
     return out
 
 
-def _modes(link: _Link) -> dict[str, Any]:
+def _modes(link: Probe) -> dict[str, Any]:
     """DO_SET_MODE to each PX4 mode while disarmed: the result and the mode then reported."""
-    from ..mavlink.dialect import decode_custom_mode
-
     out: dict[str, Any] = {}
     # Every mode PX4 v1.15 has, in the order of its numbers.
     for mode in sorted(Mode, key=lambda m: m.value):
         label, (main, sub) = mode.label, mode.value
+        if mode == Mode.OFFBOARD:
+            # Setpoints first, as ground stations send them. Without them real PX4 still takes
+            # OFFBOARD while disarmed, and then none of its controllers runs: it sends no motor
+            # outputs, and its lockstep simulation, which waits for them, stops.
+            link.stream = link.setpoints(link.position())
+            link.sleep(1.0)
         result = link.command("DO_SET_MODE", 1, main, sub)
         link.sleep(0.5)
-        cm = link.custom_mode()
-        out[label] = {"result": result, "reported": list(decode_custom_mode(cm))}
+        out[label] = {"result": result, "reported": link.mode()}
         link.command("DO_SET_MODE", 1, 4, 3)  # back to hold
+        link.stream = None
         link.sleep(0.5)
     return out
 
@@ -332,10 +181,10 @@ def _mission_items(home: tuple[int, int]) -> list[tuple[Any, ...]]:
     ]
 
 
-def _upload(link: _Link, items: list[tuple[Any, ...]], mission_type: int) -> Any:
+def _upload(link: Probe, items: list[tuple[Any, ...]], mission_type: int) -> Any:
     """Upload ``items``; the ack type and the kinds of requests seen."""
     link.catch_up()
-    link.mav.mission_count_send(1, 1, len(items), mission_type)
+    link.mav.mission_count_send(*link.target, len(items), mission_type)
     requests: list[str] = []
     for _ in range(4 * len(items) + 4):
         m = link.wait(
@@ -349,12 +198,12 @@ def _upload(link: _Link, items: list[tuple[Any, ...]], mission_type: int) -> Any
         requests.append(m.get_type())
         s, frame, cmd, p1, p2, p3, p4, x, y, z = items[m.seq]
         link.mav.mission_item_int_send(
-            1, 1, s, frame, cmd, int(s == 0), 1, p1, p2, p3, p4, x, y, z, mission_type
+            *link.target, s, frame, cmd, int(s == 0), 1, p1, p2, p3, p4, x, y, z, mission_type
         )
     return {"ack": None, "requests": requests}
 
 
-def _missions(link: _Link) -> dict[str, Any]:
+def _missions(link: Probe) -> dict[str, Any]:
     out: dict[str, Any] = {}
     home = link.wait(lambda m: m.get_type() == "HOME_POSITION", 5.0)
     if home is None:
@@ -364,13 +213,15 @@ def _missions(link: _Link) -> dict[str, Any]:
     items = _mission_items(origin)
     out["mission"] = _upload(link, items, 0)
     # MISSION_SET_CURRENT onto the DO_JUMP item: the current item then reported (PX4 v1.15
-    # takes the index as it is, without resolving the jump).
+    # takes the index as it is, without resolving the jump). Asked once the new mission is
+    # taken (PX4 puts an idle vehicle's new mission back to its first item), and answered by
+    # the last MISSION_CURRENT of a few (PX4 streams it at 1 Hz).
+    link.sleep(2.0)
     link.catch_up()
-    link.mav.mission_set_current_send(1, 1, 3)
-    link.sleep(1.0)
-    current = link.last.get("MISSION_CURRENT")
-    out["set current onto DO_JUMP"] = None if current is None else int(current.seq)
-    link.mav.mission_set_current_send(1, 1, 0)
+    link.mav.mission_set_current_send(*link.target, 3)
+    current = link.collect("MISSION_CURRENT", lambda m: int(m.seq), 3.0)
+    out["set current onto DO_JUMP"] = current[-1] if current else None
+    link.mav.mission_set_current_send(*link.target, 0)
     out["mission without jump"] = _upload(link, [items[0], items[1]], 0)
     corners = ((9000, 9000), (9000, -9000), (-9000, -9000), (-9000, 9000))
     fence = [
@@ -383,26 +234,26 @@ def _missions(link: _Link) -> dict[str, Any]:
     out["rally"] = _upload(link, rally, 2)
     # Download with the legacy request: which message answers it.
     link.catch_up()
-    link.mav.mission_request_list_send(1, 1, 0)
+    link.mav.mission_request_list_send(*link.target, 0)
     count = link.wait(lambda m: m.get_type() == "MISSION_COUNT", 2.0)
     out["download count"] = None if count is None else int(count.count)
     link.catch_up()
-    link.mav.mission_request_send(1, 1, 0, 0)
+    link.mav.mission_request_send(*link.target, 0, 0)
     reply = link.wait(
         lambda m: m.get_type() in ("MISSION_ITEM", "MISSION_ITEM_INT", "MISSION_ACK"), 2.0
     )
     out["legacy MISSION_REQUEST answer"] = None if reply is None else reply.get_type()
-    link.mav.mission_ack_send(1, 1, 0, 0)
+    link.mav.mission_ack_send(*link.target, 0, 0)
     for mtype, label in ((1, "fence"), (2, "rally")):
         link.catch_up()
-        link.mav.mission_request_list_send(1, 1, mtype)
+        link.mav.mission_request_list_send(*link.target, mtype)
         c = link.wait(lambda m, t=mtype: m.get_type() == "MISSION_COUNT" and m.mission_type == t, 2)
         out[f"download {label} count"] = None if c is None else int(c.count)
         if c is not None and c.count:
-            link.mav.mission_ack_send(1, 1, 0, mtype)
+            link.mav.mission_ack_send(*link.target, 0, mtype)
     for mtype in (1, 2):
         link.catch_up()
-        link.mav.mission_clear_all_send(1, 1, mtype)
+        link.mav.mission_clear_all_send(*link.target, mtype)
         link.wait(lambda m: m.get_type() == "MISSION_ACK", 1.0)
     return out
 
@@ -417,11 +268,11 @@ def _heartbeat(hb: Any) -> dict[str, Any]:
     }
 
 
-def _metadata(link: _Link) -> dict[str, Any]:
+def _metadata(link: Probe) -> dict[str, Any]:
     """PX4's parameter metadata (defaults, ranges), read over MAVLink FTP."""
     from pymavlink import mavftp
 
-    data = mavftp.MAVFTP(link.conn, 1, 1).read("/etc/extras/parameters.json.xz", 1 << 22)
+    data = mavftp.MAVFTP(link.conn, *link.target).read("/etc/extras/parameters.json.xz", 1 << 22)
     if not data:
         return {}
     meta = json.loads(lzma.decompress(data))
@@ -436,13 +287,21 @@ def _metadata(link: _Link) -> dict[str, Any]:
 
 
 def record(
-    port: int, *, peer: int | None = None, metadata: bool = False, timeout: float = 300.0
+    port: int,
+    *,
+    peer: int | None = None,
+    metadata: bool = False,
+    timeout: float = 300.0,
+    alive: Callable[[], bool] | None = None,
 ) -> dict[str, Any]:
     """Ask the autopilot linked to UDP ``port`` every question; its answers (JSON-able).
 
     ``peer``: the autopilot's own UDP port, to say hello to first (PX4's API link).
+    ``timeout``: wall seconds any one wait may take; ``alive``: whether the autopilot still
+    runs (a wait raises :class:`~.probe.AutopilotStalled` once it does not, or once its
+    clock has not moved for :data:`~.probe.STALL` wall seconds).
     """
-    link = _Link(port, timeout, peer)
+    link = Probe(port, timeout, peer, alive=alive)
     try:
         hb = link.wait(lambda m: m.get_type() == "HEARTBEAT", 30.0)
         assert hb is not None, "no HEARTBEAT within 30 s"
@@ -455,6 +314,7 @@ def record(
         out["commands"] = _commands(link)
         out["modes"] = _modes(link)
         out["missions"] = _missions(link)
+        out["flight"] = flight(link)
         if metadata:
             meta = _metadata(link)
             for name, entry in out["params"].items():
@@ -509,6 +369,7 @@ def differences(expected: dict[str, Any], actual: dict[str, Any]) -> list[str]:
                 want, got = want["ack"], (got or {}).get("ack")
             if got != want:
                 out.append(f"{section} / {key}: {got!r}, PX4 {want!r}")
+    out += flight_differences(expected.get("flight", {}), actual.get("flight", {}))
     return out
 
 

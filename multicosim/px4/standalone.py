@@ -31,6 +31,8 @@ __all__ = ["paced_params", "run_real_sitl", "run_sitl"]
 
 log = logging.getLogger(__name__)
 
+_INT32 = 6  # MAV_PARAM_TYPE_INT32: types up to it are integers
+
 
 def paced_params(speed: float) -> dict[str, float]:
     """The loss timeouts PX4 gives a simulation paced at ``speed`` x real time.
@@ -39,8 +41,8 @@ def paced_params(speed: float) -> dict[str, float]:
     second at any speed, so PX4's SITL start-up (etc/init.d-posix/rcS, when
     PX4_SIM_SPEED_FACTOR is set) lengthens, in simulated seconds, the timeouts that judge
     them: at 10x, a client that pauses 60 ms is not taken for lost. Both autopilots get
-    them, within each parameter's range (a longer timeout than its maximum already outlasts
-    any pause); parameters a user sets win.
+    them, within each parameter's range and type (a longer timeout than its maximum already
+    outlasts any pause); parameters a user sets win.
     """
     from .autopilot.params import table
 
@@ -54,8 +56,11 @@ def paced_params(speed: float) -> dict[str, float]:
         ("COM_OF_LOSS_T", 0.5),
         ("COM_OBC_LOSS_T", 5.0),
     ):
-        high = params[name].max
-        out[name] = per_unit * speed if high is None else min(per_unit * speed, high)
+        p = params[name]
+        value = per_unit * speed
+        value = value if p.max is None else min(value, p.max)
+        value = value if p.min is None else max(value, p.min)
+        out[name] = float(round(value)) if p.type <= _INT32 else value
     return out
 
 

@@ -5,7 +5,8 @@ Real PX4's answers were recorded from the PX4 SITL binary flying our world by
 autopilot, run standalone as ``multicosim px4 sitl`` on loopback UDP, is asked the same
 questions in the same order by :func:`multicosim.px4.conformance.record`, and every answer
 is compared: heartbeat, streams and rates, parameters (names, types, values), parameter,
-command, mode and mission protocol answers.
+command, mode and mission protocol answers, and what flying does (a takeoff's altitude,
+DO_REPOSITION in Hold, offboard setpoints that stop or lie far away), within tolerances.
 """
 
 from __future__ import annotations
@@ -15,7 +16,9 @@ from typing import Any
 
 import pytest
 
+from multicosim.mavlink.dialect import new_link
 from multicosim.px4 import conformance
+from multicosim.px4.probe import AutopilotStalled, Probe
 from multicosim.px4.standalone import paced_params
 
 pytest.importorskip("pymavlink")
@@ -61,17 +64,84 @@ def test_the_probe_catches_up_with_a_backlog_before_it_asks(udp_port: int) -> No
     # Ten simulated seconds of telemetry wait unread (the probe was descheduled): the probe
     # reads them before its next question, so that the answer's window starts from the
     # autopilot's latest time, not from the backlog's oldest.
-    from multicosim.mavlink.dialect import new_link
-
-    link = conformance._Link(udp_port, timeout=5.0)
+    link = Probe(udp_port, timeout=5.0)
     autopilot = new_link(1, 1)
     try:
-        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sender:
-            for ms in range(0, 10_001, 100):
-                msg = autopilot.attitude_encode(ms, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-                sender.sendto(msg.pack(autopilot), ("127.0.0.1", udp_port))
+        backlog = [
+            (autopilot, autopilot.attitude_encode(ms, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
+            for ms in range(0, 10_001, 100)
+        ]
+        _send(udp_port, *backlog)
         link.catch_up()
         assert link.sim_ms == 10_000
         assert link.counts["ATTITUDE"] == 101
+    finally:
+        link.close()
+
+
+def test_flown_answers_are_compared_within_their_tolerances() -> None:
+    px4 = conformance.load()
+    flight = px4["flight"]
+    takeoff = flight["takeoff to 10 m"]
+    near = {**takeoff, "altitude": takeoff["altitude"] + 0.2}
+    far = {**takeoff, "altitude": takeoff["altitude"] + 0.5}
+    assert (
+        conformance.differences(px4, {**px4, "flight": {**flight, "takeoff to 10 m": near}}) == []
+    )
+    diffs = conformance.differences(px4, {**px4, "flight": {**flight, "takeoff to 10 m": far}})
+    assert diffs == [
+        f"flight / takeoff to 10 m / altitude: {far['altitude']!r}, PX4 {takeoff['altitude']!r}"
+    ]
+    accepted = {**flight, "reposition in hold": {**flight["reposition in hold"], "result": 0}}
+    assert conformance.differences(px4, {**px4, "flight": accepted}) == [
+        "flight / reposition in hold / result: 0, PX4 3"
+    ]
+
+
+def _send(port: int, *messages: tuple[Any, Any]) -> None:
+    """Send each (encoder, message) to ``port`` on loopback, as an autopilot does."""
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sender:
+        for link, msg in messages:
+            sender.sendto(msg.pack(link), ("127.0.0.1", port))
+
+
+def test_the_probe_talks_to_the_system_that_sent_the_heartbeat(udp_port: int) -> None:
+    # Real PX4 SITL instance N is system N + 1: the probe takes the system id from the first
+    # autopilot heartbeat and ignores other systems.
+    link = Probe(udp_port, timeout=5.0)
+    autopilot, stranger = new_link(3, 1), new_link(7, 1)
+    try:
+        _send(
+            udp_port,
+            (autopilot, autopilot.heartbeat_encode(2, 12, 0, 0, 3)),
+            (stranger, stranger.attitude_encode(5_000, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)),
+            (autopilot, autopilot.attitude_encode(1_000, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)),
+        )
+        link.catch_up()
+        assert link.target == (3, 1)
+        assert link.sim_ms == 1_000
+        assert link.counts["ATTITUDE"] == 1
+    finally:
+        link.close()
+
+
+def test_a_wait_ends_when_the_autopilots_clock_stops(udp_port: int) -> None:
+    # A lockstep autopilot whose simulation stopped sends no later time: the wait raises
+    # rather than waiting out every later question.
+    link = Probe(udp_port, timeout=60.0, stall=0.5)
+    autopilot = new_link(1, 1)
+    try:
+        _send(udp_port, (autopilot, autopilot.attitude_encode(1_000, 0, 0, 0, 0, 0, 0)))
+        with pytest.raises(AutopilotStalled, match="stayed at 1000 ms"):
+            link.wait(lambda m: False, 10.0)
+    finally:
+        link.close()
+
+
+def test_a_wait_ends_when_the_autopilot_exits(udp_port: int) -> None:
+    link = Probe(udp_port, timeout=60.0, alive=lambda: False)
+    try:
+        with pytest.raises(AutopilotStalled, match="exited"):
+            link.wait(lambda m: False, 10.0)
     finally:
         link.close()

@@ -423,3 +423,23 @@ def test_standalone_sitl_serves_px4s_usual_ports(
     for cmdline in Path("/proc").glob("[0-9]*/cmdline"):
         with contextlib.suppress(OSError):
             assert run_dir.encode() not in cmdline.read_bytes(), f"{cmdline} outlived the SITL"
+
+
+def test_paced_loss_timeouts_grow_with_the_speed_within_their_ranges() -> None:
+    from multicosim.px4.autopilot.params import table
+    from multicosim.px4.standalone import paced_params
+
+    assert paced_params(1.0) == {}  # real time: PX4's own values
+    assert paced_params(10.0) == {
+        "COM_DL_LOSS_T": 100.0,
+        "COM_RC_LOSS_T": 5.0,
+        "COM_OF_LOSS_T": 5.0,
+        "COM_OBC_LOSS_T": 50.0,
+    }
+    params = table()
+    for speed in (0.1, 3.3, 1000.0):
+        for name, value in paced_params(speed).items():
+            low, high = params[name].min, params[name].max
+            assert low is None or value >= low, name
+            assert high is None or value <= high, name
+    assert paced_params(3.3)["COM_DL_LOSS_T"] == 33.0  # an integer parameter stays one

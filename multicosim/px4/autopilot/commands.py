@@ -43,6 +43,8 @@ from .state import State
 
 __all__ = ["Commands"]
 
+REPOSITION_CHANGE_MODE = 1  # MAV_DO_REPOSITION_FLAGS_CHANGE_MODE, DO_REPOSITION's param 2
+
 # Messages REQUEST_MESSAGE is answered for beyond the streams (PX4 accepts these; the ones
 # our dialect cannot encode are acknowledged only).
 ONE_SHOT = {"AUTOPILOT_VERSION", "PROTOCOL_VERSION", "GPS_GLOBAL_ORIGIN", "FLIGHT_INFORMATION"}
@@ -152,19 +154,32 @@ class Commands(State):
         return n, e, home_d - alt
 
     def _reposition(self, p: tuple[float, ...], frame: int) -> int:
-        if not self.armed or self.landed:
-            return RESULT_DENIED
+        """DO_REPOSITION as PX4 v1.15 does it: the commander answers, the navigator flies.
+
+        The commander wants the change-mode flag (param 2 is 1): without it the answer is
+        UNSUPPORTED, with it the mode becomes Hold. The navigator takes the position whatever
+        the answer, armed and in the air, and Hold flies there (Commander::handle_command,
+        Navigator::run).
+        """
+        if _int(p[1]) != REPOSITION_CHANGE_MODE:
+            result = RESULT_UNSUPPORTED
+        elif self.set_mode(Mode.LOITER) is None:
+            result = RESULT_ACCEPTED
+        else:
+            result = RESULT_TEMP_REJECTED
+        if not self.armed or self.landed or self.mode != Mode.LOITER:
+            return result
         target = self._local(p, frame)
         pos = self.est.pos
         if target is None:
             alt = p[6]
             if not math.isfinite(alt):
-                return RESULT_DENIED
+                return result
             target = (pos[0], pos[1], self.est.origin_alt - alt)
         n, e, d = target
         speed = p[0] if math.isfinite(p[0]) and p[0] > 0 else None
         self.reposition(n, e, d, speed)
-        return RESULT_ACCEPTED
+        return result
 
     def _set_home_to(self, p: tuple[float, ...], frame: int) -> int:
         if p[0] > 0.5:
