@@ -75,7 +75,8 @@ def flight(probe: Probe) -> dict[str, Any]:
     at = probe.position()
     probe.stream = None
     code = encode_custom_mode(*Mode.OFFBOARD.value)
-    probe.wait(lambda m: m.get_type() == "HEARTBEAT" and m.custom_mode != code, 5.0)
+    # Within COM_OF_LOSS_T, which grows with the speed the autopilot is paced at (at most 60 s).
+    probe.wait(lambda m: m.get_type() == "HEARTBEAT" and m.custom_mode != code, 65.0)
     probe.sleep(3.0)
     out["offboard setpoints stop"] = {
         "result": result,
