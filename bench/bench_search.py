@@ -15,8 +15,10 @@ under a barometer spoof). For each problem:
    rate;
 4. real PX4 (``--real-seeds``, where ``--px4-binary`` or ``MCS_PX4_BINARY`` names PX4's SITL
    ``bin/px4``): the PX4 problems searched at low, confirmed at medium and on real PX4: the
-   transfer rate per level, and the wall time against flying as many simulations on real
-   PX4 alone.
+   transfer rate per level, the verdict agreement (how many of the counterexamples the
+   built-in autopilot confirmed at medium real PX4 confirmed too; each with its sample and
+   its robustness on both), and the wall time against flying as many simulations on real PX4
+   alone.
 
 Usage: ``python bench/bench_search.py [--seeds N] [--problems a,b] [--optimizers a,b]
 [--mf-seeds N] [--real-seeds N] [--quick] [--docs]``. Writes
@@ -35,6 +37,7 @@ import os
 import statistics
 import sys
 import time
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -52,6 +55,7 @@ from multicosim.search.falsify import (
     HypothesisSearch,
     Integer,
     Real,
+    Trial,
     default_optimizer,
     falsify,
     first_violation_statistics,
@@ -221,6 +225,18 @@ def _found_median(runs: list[tuple[float, bool]]) -> float | None:
     return None if math.isinf(value) else value
 
 
+def agreement(trials: Sequence[Trial]) -> list[dict[str, Any]]:
+    """Each counterexample the built-in autopilot confirmed at medium and real PX4 flew: the
+    sample and its robustness at medium and on real PX4 (the verdicts agree where both are
+    negative)."""
+    medium = {t.search: t.robustness for t in trials if t.level == "medium"}
+    return [
+        {"search": t.search, "sample": t.sample, "medium": medium[t.search], "real": t.robustness}
+        for t in trials
+        if t.level == px4.SITL_LEVEL and t.search in medium
+    ]
+
+
 def real_px4(problem: Problem, seeds: int, firmware: px4.SITL) -> dict[str, Any]:
     """Search at low, confirm at medium and on real PX4: the transfer rate per level."""
     rows = []
@@ -245,6 +261,7 @@ def real_px4(problem: Problem, seeds: int, firmware: px4.SITL) -> dict[str, Any]
                 "real_robustness": [
                     t.robustness for t in result.trials if t.level == px4.SITL_LEVEL
                 ],
+                "agreement": agreement(result.trials),
             }
         )
         rates = {k: f"{v['transferred']}/{v['tried']}" for k, v in rows[-1]["levels"].items()}
@@ -368,8 +385,25 @@ def table(data: dict[str, Any]) -> str:
                 f"| {_share(top['transferred'], top['tried'])} "
                 f"| {'-' if per_run is None else f'{per_run:.0f} s'} | {times} |"
             )
+        lines += ["", verdict_agreement(real)]
     lines.append(END)
     return "\n".join(lines)
+
+
+def verdict_agreement(real: dict[str, Any]) -> str:
+    """The sentence under the real-PX4 table: how many of the counterexamples the built-in
+    autopilot confirmed at medium real PX4 confirmed too (every one of them is flown there)."""
+    counts = {
+        name: (r["levels"][px4.SITL_LEVEL]["transferred"], r["levels"][px4.SITL_LEVEL]["tried"])
+        for name, r in real.items()
+    }
+    held = sum(c[0] for c in counts.values())
+    tried = sum(c[1] for c in counts.values())
+    each = ", ".join(f"{name} {c[0]}/{c[1]}" for name, c in counts.items())
+    return (
+        f"Verdict agreement on the PX4 problems' counterexamples: real PX4 confirmed {held} of "
+        f"the {tried} counterexamples the built-in autopilot found at medium ({each})."
+    )
 
 
 def update_docs(section: str) -> None:
