@@ -7,6 +7,7 @@ import random
 
 from multicosim.core.geo import GRAVITY, LocalProjection
 from multicosim.px4.autopilot.estimator import Estimator
+from multicosim.px4.autopilot.firmware import Autopilot
 
 
 def _field(yaw: float) -> tuple[float, float, float]:
@@ -124,3 +125,31 @@ def test_in_flight_the_imu_carries_the_position_for_ekf2_noaid_tout() -> None:
     # the air, and on the ground only while GPS is fresh (to 3.4 s).
     assert fly(True) == [False, False, True, True, True, True, True, True, False, False]
     assert fly(False) == [False, False, True, True, False, False, False, False, False, False]
+
+
+def _lying(roll_deg: float) -> Autopilot:
+    """An autopilot whose vehicle has lain still for 2 s rolled by ``roll_deg``."""
+    ap = Autopilot()
+    roll = math.radians(roll_deg)
+    rate = 250
+    for k in range(2 * rate):
+        now = k / rate
+        # At rest the accelerometer reads the reaction to gravity, in the tilted body frame.
+        ap.est.imu(
+            now,
+            1 / rate,
+            (0.0, -GRAVITY * math.sin(roll), -GRAVITY * math.cos(roll)),
+            (0.0, 0.0, 0.0),
+        )
+        if k % 5 == 0:
+            ap.est.mag(now, _field(0.0))
+            ap.est.baro(now, 0.0)
+        ap._now = now
+    return ap
+
+
+def test_a_vehicle_lying_tipped_over_is_refused_arming_as_by_px4s_failure_detector() -> None:
+    assert _lying(70.0).arm_check() == "Preflight Fail: Attitude failure (roll)"
+    assert _lying(70.0).arm() is not None
+    # On a slope it may take off from, what is left to wait for is a GPS fix, not its attitude.
+    assert _lying(5.0).arm_check() == "Preflight Fail: GPS fix too low"

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 from ...core.geo import GRAVITY
 from ...mavlink.dialect import (
     CMD_LAND,
@@ -50,6 +52,14 @@ class Commander(State):
             return "Preflight Fail: no magnetometer"
         if now - est.last_baro > 1.0 and not self._failed("baro"):
             return "Preflight Fail: no barometer"
+        # PX4's failure detector (FD_FAIL_R / FD_FAIL_P): a vehicle lying tipped over, by the
+        # wind say, is refused arming (PX4 also waits FD_FAIL_*_TTRI, 0.3 s: one on the ground
+        # stays tipped).
+        roll, pitch, _ = est.euler()
+        if abs(math.degrees(roll)) > self.params["FD_FAIL_R"]:
+            return "Preflight Fail: Attitude failure (roll)"
+        if abs(math.degrees(pitch)) > self.params["FD_FAIL_P"]:
+            return "Preflight Fail: Attitude failure (pitch)"
         if self.mode in (*POSITION_MODES, Mode.LOITER, Mode.OFFBOARD, Mode.LAND, Mode.RTL):
             if not est.gps_ok(now):
                 return "Preflight Fail: GPS fix too low"
