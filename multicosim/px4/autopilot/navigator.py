@@ -259,7 +259,7 @@ class Navigator(State):
             if cmd == CMD_TAKEOFF:
                 self._target = (pos[0], pos[1], self._target[2])
             # The leg starts where the last one ended (the item reached, or where the vehicle
-            # was told to hold): PX4 flies the line between the two.
+            # was told to hold): PX4 aims at the line between the two while it turns.
             self._leg_origin = (self._hold[0], self._hold[1])
             self._leg_speed = math.inf
         t = self._target
