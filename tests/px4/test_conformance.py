@@ -29,7 +29,7 @@ SPEED = 20.0
 @pytest.fixture
 def builtin_answers(sitl: Any, udp_port: int) -> dict[str, Any]:
     """The built-in autopilot's answers, standalone at medium fidelity."""
-    args = ("--fidelity", "medium", "--speed", str(SPEED), "--gcs-port", "0")
+    args: tuple[str, ...] = ("--fidelity", "medium", "--speed", str(SPEED), "--gcs-port", "0")
     args += ("--api-port", str(udp_port))
     with sitl(*args):
         answers: dict[str, Any] = conformance.record(udp_port)
