@@ -60,39 +60,6 @@ def _clamp(v: float, lo: float, hi: float) -> float:
     return lo if v < lo else hi if v > hi else v
 
 
-def crossing_point(
-    pos: list[float],
-    vel: list[float],
-    origin: tuple[float, float],
-    target: tuple[float, float, float],
-    acceptance: float,
-) -> tuple[float, float]:
-    """Where PX4's auto modes aim on a mission leg from ``origin`` to ``target`` (north, east).
-
-    As PX4 v1.15's PositionSmoothing (``_getCrossingPoint``): at the waypoint itself, unless
-    the vehicle is turning (faster than 0.2 m/s, its velocity more than acos(0.98), about
-    11 deg, off the direction to the waypoint, outside the acceptance radius); then at the
-    point of the leg's line max(acceptance, 5 m) from the vehicle (``_getL1Point``). So a
-    vehicle off the line after a turn comes back onto it while it turns, then flies straight
-    at the waypoint from where it is.
-    """
-    tx, ty = target[0] - pos[0], target[1] - pos[1]
-    dist, speed = math.hypot(tx, ty), math.hypot(vel[0], vel[1])
-    if speed <= 0.2 or dist <= acceptance or (vel[0] * tx + vel[1] * ty) >= 0.98 * speed * dist:
-        return target[0], target[1]
-    lx, ly = target[0] - origin[0], target[1] - origin[1]
-    length = math.hypot(lx, ly)
-    if length < 1.0:  # a climb or a step in place: no line to come back to
-        return target[0], target[1]
-    ux, uy = lx / length, ly / length
-    along = (pos[0] - origin[0]) * ux + (pos[1] - origin[1]) * uy
-    cx, cy = origin[0] + along * ux, origin[1] + along * uy  # the closest point of the line
-    cross = math.hypot(cx - pos[0], cy - pos[1])
-    l1 = max(acceptance, 5.0)
-    ahead = math.sqrt(l1 * l1 - cross * cross) if l1 > cross else 0.0
-    return cx + ahead * ux, cy + ahead * uy
-
-
 def position_control(
     pos: list[float],
     sp: tuple[float, float, float],
@@ -101,27 +68,35 @@ def position_control(
     up: float,
     down: float,
     vz_override: float | None = None,
-    aim: tuple[float, float] | None = None,
+    origin: tuple[float, float] | None = None,
     kp_xy: float = 0.95,
     kp_z: float = 1.5,
 ) -> tuple[float, float, float]:
     """Velocity setpoint (NED) towards position ``sp``, limited like PX4's MPC_* speeds.
 
     Saturating the horizontal error as one vector keeps the path a straight line in still
-    air. With ``aim`` (north, east: see :func:`crossing_point`) the vehicle heads for it
-    instead, as fast as the distance to ``sp`` allows.
+    air. With ``origin`` (north, east: where the leg began) the vehicle flies the line from
+    it to ``sp``, as PX4's auto modes do: the error across the line is corrected first and
+    the rest of the speed goes along it, so a crosswind does not bend the path.
     """
     ex, ey = sp[0] - pos[0], sp[1] - pos[1]
-    if aim is not None:
-        ax, ay = aim[0] - pos[0], aim[1] - pos[1]
-        a = math.hypot(ax, ay)
-        if a > 1e-6:
-            dist = math.hypot(ex, ey)
-            ex, ey = ax / a * dist, ay / a * dist
-    vx, vy = kp_xy * ex, kp_xy * ey
-    h = math.hypot(vx, vy)
-    if h > cruise:
-        vx, vy = vx * cruise / h, vy * cruise / h
+    lx, ly = (sp[0] - origin[0], sp[1] - origin[1]) if origin is not None else (0.0, 0.0)
+    length = math.hypot(lx, ly)
+    if length > 1.0:
+        ux, uy = lx / length, ly / length
+        along = ex * ux + ey * uy  # still to go along the line
+        cx, cy = kp_xy * (ex - along * ux), kp_xy * (ey - along * uy)  # back onto the line
+        across = math.hypot(cx, cy)
+        if across > cruise:
+            cx, cy, across = cx * cruise / across, cy * cruise / across, cruise
+        room = math.sqrt(cruise * cruise - across * across)
+        va = _clamp(kp_xy * along, -room, room)
+        vx, vy = cx + va * ux, cy + va * uy
+    else:
+        vx, vy = kp_xy * ex, kp_xy * ey
+        h = math.hypot(vx, vy)
+        if h > cruise:
+            vx, vy = vx * cruise / h, vy * cruise / h
     vz = kp_z * (sp[2] - pos[2]) if vz_override is None else vz_override
     return vx, vy, _clamp(vz, -up, down)
 

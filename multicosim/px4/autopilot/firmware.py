@@ -132,7 +132,6 @@ class Autopilot(Commander, Navigator, Failures, Commands, ParamServer, Missions,
         self._phase = ""
         self._hold = (0.0, 0.0, 0.0)
         self._leg_origin = (0.0, 0.0)  # where the current mission leg began (north, east)
-        self._leg_acceptance = 0.0  # the current item's acceptance radius (m), set with the leg
         self._leg_speed = math.inf  # the fastest the leg may be flown here (a turn ahead)
         self._target = None
         self._cruise = None

@@ -31,7 +31,7 @@ from ...mavlink.dialect import (
 )
 from ...mavlink.hil import ACTUATOR_FLAG_VELOCITY, HilActuatorControls
 from ...mavlink.plan import command_name
-from .control import crossing_point, position_control
+from .control import position_control
 from .state import Item, State, Vec3
 
 __all__ = ["Navigator"]
@@ -259,7 +259,7 @@ class Navigator(State):
             if cmd == CMD_TAKEOFF:
                 self._target = (pos[0], pos[1], self._target[2])
             # The leg starts where the last one ended (the item reached, or where the vehicle
-            # was told to hold): PX4 aims at the line between the two while it turns.
+            # was told to hold): PX4 flies the line between the two.
             self._leg_origin = (self._hold[0], self._hold[1])
             self._leg_speed = math.inf
         t = self._target
@@ -292,7 +292,6 @@ class Navigator(State):
             return self._hold, self._land_speed(), False, None
         # Waypoint (or takeoff when already airborne, or unlimited loiter).
         acc = item.param2 if cmd == CMD_WAYPOINT and item.param2 > 0 else p["NAV_ACC_RAD"]
-        self._leg_acceptance = acc
         hdist = math.hypot(pos[0] - t[0], pos[1] - t[1])
         if cmd != CMD_LOITER_UNLIM and hdist < acc and abs(pos[2] - t[2]) < p["NAV_MC_ALT_RAD"]:
             hold_time = item.param1 if cmd in (CMD_WAYPOINT, CMD_LOITER_TIME) else 0.0
@@ -474,9 +473,7 @@ class Navigator(State):
             up=up,
             down=down,
             vz_override=vz_override,
-            aim=crossing_point(est.pos, est.vel, self._leg_origin, sp, self._leg_acceptance)
-            if leg
-            else None,
+            origin=self._leg_origin if leg else None,
         )
         if vxy is not None:
             vel_sp = (vxy[0], vxy[1], vel_sp[2])
