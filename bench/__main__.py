@@ -178,22 +178,22 @@ def speed_rows(data: dict[str, Any], scenario: str) -> list[Row]:
     for level in ("low", "medium", "high"):
         r = levels[level]
         target = r["target"]
-        backend = r["backend"]
+        placement = r["placement"]
         note = ""
         if level == "high" and r.get("fallback_reason"):
-            note = f"ran on the process backend: {r['fallback_reason']}"
+            note = f"ran as local processes: {r['fallback_reason']}"
         if level == "low":
             limit = "Python model and controller code in one process"
         else:
             over = r.get("over_raw_one_call", r.get("over_raw"))
             limit = (
                 f"{over:.1f}x the raw MuJoCo time of its model; the rest is lockstep round "
-                "trips between processes" + (" and containers" if backend == "docker" else "")
+                "trips between processes" + (" and containers" if placement == "docker" else "")
             )
         rows.append(
             row(
                 "speed (60 s mission)",
-                f"{scenario} {level} ({backend})",
+                f"{scenario} {level} ({placement})",
                 f"{r['speed_factor']:.0f}x real time",
                 ratio=r["speed_factor"],
                 unit="x",
@@ -376,11 +376,11 @@ def throughput_rows(data: dict[str, Any]) -> list[Row]:
         rows.append(
             row(
                 "falsification throughput",
-                f"rover 60 s, {level} ({r['backend']}), fresh simulation each",
+                f"rover 60 s, {level} ({r['placement']}), fresh simulation each",
                 f"{r['per_minute']:.0f} simulations/min",
                 ratio=r["per_minute"],
                 unit="/min",
-                limit=f"ran on the process backend: {note}" if note else "",
+                limit=f"ran as local processes: {note}" if note else "",
             )
         )
     p = data["pytest"]

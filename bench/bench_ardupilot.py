@@ -59,7 +59,7 @@ def fly_ardupilot(
     """One mission on ArduPilot (medium); its result and where the wall time went."""
     with cls(fidelity="medium", firmware=sitl, seed=0).start() as simulation:
         spent = time_steps(simulation.world.participant)  # type: ignore[attr-defined]
-        bridge = simulation.firmware._autopilot.bridge
+        bridge = simulation.firmware.firmware_nodes.bridge
         assert bridge is not None
         t0 = time.perf_counter()
         result = simulation.firmware.send(config)

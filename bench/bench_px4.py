@@ -67,10 +67,11 @@ def _timed(start: Any) -> dict[str, Any]:
     }
 
 
-def fly(fidelity: str, backend: str = "process") -> dict[str, Any]:
-    """One mission through the public simulator, ``px4.PX4``."""
-    run = _timed(lambda: px4.PX4(fidelity=fidelity, backend=backend, seed=0).start())  # type: ignore[arg-type]
-    return {"backend": backend, **run}
+def fly(fidelity: str, placement: str | None = None) -> dict[str, Any]:
+    """One mission through the public simulator, ``px4.PX4`` (None: the fidelity's default
+    placement)."""
+    simulator = px4.PX4(fidelity=fidelity, placement=placement, seed=0)  # type: ignore[arg-type]
+    return {"placement": simulator.placement.name, **_timed(simulator.start)}
 
 
 def fly_in_process(fidelity: str) -> dict[str, Any]:
@@ -79,11 +80,11 @@ def fly_in_process(fidelity: str) -> dict[str, Any]:
 
     def start() -> Any:
         sim = mcs.ProcessSimulator(seed=0)
-        sim.add(WorldComponent(world, fidelity, process=False))  # type: ignore[arg-type]
-        fw = sim.add(PX4Component(world, fidelity, process=False))  # type: ignore[arg-type]
+        sim.add(WorldComponent(world, fidelity, placement="in-process"))  # type: ignore[arg-type]
+        fw = sim.add(PX4Component(world, fidelity, placement="in-process"))  # type: ignore[arg-type]
         return _Adapter(sim.start(), fw)
 
-    return {"backend": "in-process", **_timed(start)}
+    return {"placement": "in-process", **_timed(start)}
 
 
 class _Adapter:
@@ -118,15 +119,15 @@ def raw_mujoco(fidelity: str, simulated: float, repeat: int) -> dict[str, float]
     return {"sim_s": sim, "wall_s": best, "speed_factor": sim / best, "timestep": world.timestep}
 
 
-def high_backend() -> tuple[str, str | None]:
-    """Docker where an engine runs and PX4 takes it, else the process backend and why."""
+def high_placement() -> tuple[str, str | None]:
+    """Docker where an engine runs and PX4 takes it, else local processes and why."""
     reason = docker_reason()
     if reason is not None:
         return "process", reason
     try:
-        px4.PX4(fidelity="high", backend="docker")  # type: ignore[arg-type]
+        px4.PX4(fidelity="high", placement="docker")
     except Exception as exc:
-        return "process", f"PX4's docker backend is not available: {exc}"
+        return "process", f"PX4's docker placement is not available: {exc}"
     return "docker", None
 
 
@@ -141,7 +142,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--output", type=Path, default=None)
     args = parser.parse_args(argv)
     repeat = 1 if args.quick else args.repeat
-    backend, fallback = high_backend()
+    placement, fallback = high_placement()
 
     runs: dict[str, list[dict[str, Any]]] = {
         "low": [],
@@ -154,7 +155,7 @@ def main(argv: list[str] | None = None) -> int:
         runs["medium"].append(fly("medium"))
         runs["medium_in_process"].append(fly_in_process("medium"))
         if i == 0:
-            runs["high"].append(fly("high", backend))
+            runs["high"].append(fly("high", placement))
     rows = {name: best(r) for name, r in runs.items()}
     raw = {
         level: raw_mujoco(level, rows[level]["sim_s"], max(2, repeat))
@@ -182,7 +183,7 @@ def main(argv: list[str] | None = None) -> int:
     }
     print(f"{'run':<28} {'sim s':>6} {'wall s':>8} {'x real':>8} {'/ raw':>7}")
     for name, r in rows.items():
-        label = f"{name} ({r['backend']})"
+        label = f"{name} ({r['placement']})"
         print(
             f"{label:<28} {r['sim_s']:6.1f} {r['send_s']:8.3f} {r['speed_factor']:8.0f}"
             f" {r['over_raw']:7.1f}"
@@ -190,7 +191,7 @@ def main(argv: list[str] | None = None) -> int:
     for level, r in raw.items():
         print(f"{'raw mj_step (' + level + ')':<28} {r['sim_s']:6.1f} {r['wall_s']:8.3f}")
     if fallback:
-        print(f"high ran on the process backend: {fallback}")
+        print(f"high ran as local processes: {fallback}")
     path = write_result("px4", out, args.output)
     print(f"wrote {path.name}")
     return 0

@@ -38,11 +38,16 @@ TARGETS = {"low": 1000.0, "medium": 20.0, "high": 5.0}
 
 
 def run_mission(
-    fidelity: rover.Fidelity, seed: int, backend: str = "process", mission: rover.Mission = MISSION
+    fidelity: rover.Fidelity,
+    seed: int,
+    placement: str | None = None,
+    mission: rover.Mission = MISSION,
 ) -> dict[str, Any]:
-    """One mission at ``fidelity``: start, send and stop wall times, simulated duration."""
+    """One mission at ``fidelity``: start, send and stop wall times, simulated duration
+    (``placement`` None: the fidelity's default)."""
     t0 = time.perf_counter()
-    simulation = rover.Rover(fidelity=fidelity, backend=backend, seed=seed).start()  # type: ignore[arg-type]
+    simulator = rover.Rover(fidelity=fidelity, placement=placement, seed=seed)
+    simulation = simulator.start()
     t1 = time.perf_counter()
     try:
         trajectory = simulation.controller.send(mission)
@@ -55,7 +60,7 @@ def run_mission(
     # The clock also ran while the controller waited for its first sensor readings.
     simulated = trajectory.final.time
     return {
-        "backend": backend,
+        "placement": simulator.placement.name,
         "start_s": t1 - t0,
         "send_s": t2 - t1,
         "stop_s": t3 - t2,
@@ -87,15 +92,15 @@ def raw_mujoco(fidelity: rover.Fidelity, duration: float, repeat: int = 3) -> di
     return results
 
 
-def high_backend() -> tuple[str, str | None]:
-    """Docker where an engine runs and the rover takes it, else the process backend and why."""
+def high_placement() -> tuple[str, str | None]:
+    """Docker where an engine runs and the rover takes it, else local processes and why."""
     reason = docker_reason()
     if reason is not None:
         return "process", reason
     try:
-        rover.Rover(fidelity="high", backend="docker")
+        rover.Rover(fidelity="high", placement="docker")
     except Exception as exc:
-        return "process", f"the rover's docker backend is not available: {exc}"
+        return "process", f"the rover's docker placement is not available: {exc}"
     return "docker", None
 
 
@@ -108,7 +113,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     repeat = 1 if args.quick else args.repeat
 
-    backend, fallback = high_backend()
+    placement, fallback = high_placement()
     runs: dict[str, list[dict[str, Any]]] = {"low": [], "medium": [], "high": []}
     for i in range(repeat):
         # Interleaved, so that a slow phase of a shared machine hits every level alike.
@@ -116,7 +121,7 @@ def main(argv: list[str] | None = None) -> int:
             runs["low"].append(run_mission("low", seed=i))
         runs["medium"].append(run_mission("medium", seed=i))
         if i == 0 or not args.quick:
-            runs["high"].append(run_mission("high", seed=i, backend=backend))
+            runs["high"].append(run_mission("high", seed=i, placement=placement))
 
     best = {f: max(r, key=lambda x: x["speed_factor"]) for f, r in runs.items()}
     raw = {level: raw_mujoco(level, best[level]["sim_s"], repeat) for level in ("medium", "high")}
@@ -149,7 +154,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"rover 60 s mission, best of {repeat} (low: {3 * repeat})")
     print(f"{'run':<44} {'wall s':>8} {'sim s':>6} {'x real':>8} {'/ raw':>7}")
     for level, e in levels.items():
-        label = f"{level} ({e['backend']})"
+        label = f"{level} ({e['placement']})"
         print(
             f"{label:<44} {e['send_s']:>8.3f} {e['sim_s']:>6.1f} {e['speed_factor']:>8.0f}"
             f" {e['over_raw_one_call']:>7.1f}"
@@ -157,7 +162,7 @@ def main(argv: list[str] | None = None) -> int:
     for level, r in raw.items():
         print(f"{'raw mj_step (' + level + ' model), one call':<44} {r['one_call_s']:>8.3f}")
     if fallback:
-        print(f"high ran on the process backend: {fallback}")
+        print(f"high ran as local processes: {fallback}")
     out = write_result("rover", report, args.output)
     print(f"wrote {out.name}")
     return 0

@@ -63,7 +63,9 @@ def fly(
         wall = time.perf_counter() - t0
         times = {"send_s": wall, **spent}
         if sitl is not None:
-            bridge = simulation.firmware._autopilot.nodes[0][1].participant  # type: ignore[attr-defined]
+            nodes = simulation.firmware.firmware_nodes
+            assert nodes is not None
+            bridge = nodes.bridges["px4.hil"].participant  # type: ignore[attr-defined]
             times["px4_s"] = bridge.wait_s
     assert result.completed, result.reason
     return result, times

@@ -23,23 +23,23 @@ from pathlib import Path
 from typing import Any
 
 from _common import HERE, ROOT, python_env, write_result
-from bench_rover import MISSION, high_backend
+from bench_rover import MISSION, high_placement
 
 import multicosim.rover as rover
 
 
-def simulations_per_minute(fidelity: str, n: int, backend: str = "process") -> dict[str, Any]:
+def simulations_per_minute(fidelity: str, n: int, placement: str | None = None) -> dict[str, Any]:
     """Run ``n`` fresh missions back to back; simulations per minute of wall time."""
     walls = []
     for seed in range(n):
         t0 = time.perf_counter()
-        with rover.Rover(fidelity=fidelity, backend=backend, seed=seed).start() as sim:  # type: ignore[arg-type]
+        with rover.Rover(fidelity=fidelity, placement=placement, seed=seed).start() as sim:  # type: ignore[arg-type]
             trajectory = sim.controller.send(MISSION)
         walls.append(time.perf_counter() - t0)
         assert trajectory.completed, trajectory.reason
     total = sum(walls)
     return {
-        "backend": backend,
+        "placement": placement or ("in-process" if fidelity == "low" else "process"),
         "simulations": n,
         "wall_s": total,
         "per_simulation_s": total / n,
@@ -81,11 +81,11 @@ def main(argv: list[str] | None = None) -> int:
     )
     batch = 4 if args.quick else 8
 
-    backend, fallback = high_backend()
+    placement, fallback = high_placement()
     levels = {
         "low": simulations_per_minute("low", counts["low"]),
         "medium": simulations_per_minute("medium", counts["medium"]),
-        "high": simulations_per_minute("high", counts["high"], backend),
+        "high": simulations_per_minute("high", counts["high"], placement),
     }
     levels["high"]["fallback_reason"] = fallback
     serial = pytest_batch(0, batch, "medium")
@@ -101,10 +101,10 @@ def main(argv: list[str] | None = None) -> int:
             "cores": os.cpu_count(),
         },
     }
-    print(f"{'level':<10}{'backend':>10}{'sims':>6}{'s/sim':>8}{'sims/min':>10}")
+    print(f"{'level':<10}{'placement':>11}{'sims':>6}{'s/sim':>8}{'sims/min':>10}")
     for level, r in levels.items():
         print(
-            f"{level:<10}{r['backend']:>10}{r['simulations']:>6}{r['per_simulation_s']:>8.2f}"
+            f"{level:<10}{r['placement']:>11}{r['simulations']:>6}{r['per_simulation_s']:>8.2f}"
             f"{r['per_minute']:>10.0f}"
         )
     print(

@@ -25,12 +25,13 @@ from .core.errors import (
     NodeStartError,
     NodeTimeoutError,
     PhysicsDivergedError,
+    PlacementUnavailableError,
     RemoteError,
     SimulationStopped,
     TraceError,
     TransportError,
 )
-from .core.fidelity import BACKENDS, FIDELITIES, Backend, Fidelity
+from .core.fidelity import FIDELITIES, Fidelity
 from .core.interfaces import CommunicationNode, Component, Node, NodeId, Simulation, Simulator
 from .core.messages import Message
 from .core.version import __version__
@@ -67,10 +68,10 @@ _LAZY = {
             "ProcessNode",
             "ProcessSimulation",
             "ProcessSimulator",
-            "ScenarioSimulation",
         ),
         ".local",
     ),
+    **dict.fromkeys(("Placement", "Scenario", "ScenarioSimulation"), ".placement"),
     # Errors that carry a payload live beside it.
     "ComponentCheckError": ".local.check",
     "CampaignInterrupted": ".search.campaign",
@@ -79,9 +80,7 @@ _LAZY = {
 }
 
 __all__ = [
-    "BACKENDS",
     "FIDELITIES",
-    "Backend",
     "CampaignInterrupted",
     "CommunicationNode",
     "Component",
@@ -110,6 +109,8 @@ __all__ = [
     "NodeTimeoutError",
     "Participant",
     "PhysicsDivergedError",
+    "Placement",
+    "PlacementUnavailableError",
     "ProcessComponent",
     "ProcessFirmwareComponent",
     "ProcessFirmwareNode",
@@ -119,6 +120,7 @@ __all__ = [
     "RemoteError",
     "Requirement",
     "RequirementViolation",
+    "Scenario",
     "ScenarioSimulation",
     "SelfContainedSimulation",
     "SelfContainedSimulator",
@@ -149,12 +151,12 @@ if TYPE_CHECKING:
         ProcessNode,
         ProcessSimulation,
         ProcessSimulator,
-        ScenarioSimulation,
         SelfContainedSimulation,
         SelfContainedSimulator,
         ThreadFirmwareComponent,
     )
     from .local.check import ComponentCheckError
+    from .placement import Placement, Scenario, ScenarioSimulation
     from .runtime import (
         Firmware,
         FirmwareContext,

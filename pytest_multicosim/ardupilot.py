@@ -2,7 +2,7 @@
 
 ``ardupilot_copter_simulation`` and ``ardupilot_rover_simulation`` are started
 :class:`multicosim.ardupilot.ArduPilotSimulation` s, real ArduCopter or ArduRover SITL on
-our MuJoCo worlds at the fidelity, backend and seed the options and the ``fidelity`` marker
+our MuJoCo worlds at the fidelity, placement and seed the options and the ``fidelity`` marker
 select, stopped when the test ends whatever happens::
 
     @pytest.mark.fidelity("medium", "high")
@@ -16,7 +16,7 @@ select, stopped when the test ends whatever happens::
 overridden in a module or conftest. ArduPilot comes from ``--mcs-ardupilot-dir`` (its ini
 twin, or ``MCS_ARDUPILOT_DIR``): a directory with ``bin/arducopter``, ``bin/ardurover`` and
 ``params/``; without one, the tests are skipped with the reason. ArduPilot flies the MuJoCo
-world only: at low fidelity they are skipped too. With ``--mcs-backend=docker`` ArduPilot
+world only: at low fidelity they are skipped too. With ``--mcs-placement=docker`` ArduPilot
 runs in a container of an image built from that directory. Heavy imports happen inside the
 fixtures.
 """
@@ -82,30 +82,26 @@ def _simulator(
     request: pytest.FixtureRequest,
     vehicle: str,
     fidelity: str,
-    backend: str,
     seed: int,
     simulations: Any,
     params: dict[str, float],
     world: WorldConfig | None = None,
 ) -> Any:
-    from multicosim.ardupilot import BACKENDS, Copter, Rover
+    from multicosim.ardupilot import Copter, Rover
 
     if fidelity == "low":
         pytest.skip(
             "ArduPilot flies the MuJoCo world (medium, high fidelity); there is no low "
             "fidelity ArduPilot"
         )
-    if backend not in BACKENDS:
-        pytest.skip(f"the ArduPilot scenarios do not run on the {backend!r} backend")
     directory = request.getfixturevalue("ardupilot_dir")
-    if backend == "docker":
-        request.getfixturevalue("mcs_runtime_image")
+    placement = request.getfixturevalue("mcs_placement")
     cls = Copter if vehicle == "copter" else Rover
     simulator = cls(
         world,
         fidelity=fidelity,  # type: ignore[arg-type]  # validated by the simulator
         firmware_dir=directory,
-        backend=backend,
+        placement=placement,
         seed=seed,
         params=params,
     )
@@ -116,7 +112,6 @@ def _simulator(
 def ardupilot_copter_simulator(
     request: pytest.FixtureRequest,
     mcs_fidelity: str,
-    mcs_backend: str,
     mcs_seed: int,
     mcs_simulations: Any,
     ardupilot_params: dict[str, float],
@@ -127,7 +122,6 @@ def ardupilot_copter_simulator(
         request,
         "copter",
         mcs_fidelity,
-        mcs_backend,
         mcs_seed,
         mcs_simulations,
         ardupilot_params,
@@ -146,7 +140,6 @@ def ardupilot_copter_simulation(ardupilot_copter_simulator: Copter) -> ArduPilot
 def ardupilot_rover_simulator(
     request: pytest.FixtureRequest,
     mcs_fidelity: str,
-    mcs_backend: str,
     mcs_seed: int,
     mcs_simulations: Any,
     ardupilot_params: dict[str, float],
@@ -157,7 +150,6 @@ def ardupilot_rover_simulator(
         request,
         "rover",
         mcs_fidelity,
-        mcs_backend,
         mcs_seed,
         mcs_simulations,
         ardupilot_params,

@@ -3,7 +3,7 @@
 Each test of ours records a trace from its first fixture's setup to its last teardown; when
 it fails (or with ``--mcs-keep-traces=all``) the trace, its Foxglove layout, plots, the
 components' output and real firmware's flight logs are written to one directory per test,
-seed and backend under ``--mcs-artifacts``.
+seed and placement under ``--mcs-artifacts``.
 """
 
 from __future__ import annotations
@@ -52,12 +52,13 @@ def _slug(nodeid: str) -> str:
 
 
 def artifacts_dir(settings: Settings, item: pytest.Item) -> Path:
-    """Where the artifacts of ``item`` go: one directory per test, seed and backend.
+    """Where the artifacts of ``item`` go: one directory per test, seed and placement.
 
-    A replay with another seed (or backend) writes beside the original failure's files, not
+    A replay with another seed (or placement) writes beside the original failure's files, not
     over them.
     """
-    return settings.artifacts / _slug(item.nodeid) / f"seed-{settings.seed}-{settings.backend}"
+    run = f"seed-{settings.seed}-{settings.placement_for(fidelity_of(item))}"
+    return settings.artifacts / _slug(item.nodeid) / run
 
 
 @contextlib.contextmanager
@@ -75,7 +76,7 @@ def recording(item: pytest.Item) -> Iterator[None]:
             "test": item.nodeid,
             "seed": settings.seed,
             "fidelity": fidelity_of(item) or settings.fidelity[0],
-            "backend": settings.backend,
+            "placement": settings.placement_for(fidelity_of(item)),
         },
         record=settings.keep_traces != "none",
     )

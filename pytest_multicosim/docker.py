@@ -1,9 +1,11 @@
-"""The Docker engine as the plugin sees it: skip without one, build the runtime image, sweep.
+"""Placements as the plugin sees them: prepared before a test, skipped where they cannot run;
+the Docker engine's runtime image and sweep.
 
-Tests on the docker backend call :func:`require_docker` (the ``mcs_simulator`` and the
-scenario fixtures do): without an engine they are skipped with the reason, or fail with
-``MCS_REQUIRE_DOCKER=1`` (CI). Nothing here imports the Docker SDK before it is needed, so a
-session that never uses the docker backend never loads it.
+Tests on a placement get it prepared (:func:`prepared`; the ``mcs_placement`` fixture and the
+scenario fixtures do): where it cannot run here (no Docker engine, say) they are skipped with
+the reason, or fail with ``MCS_REQUIRE_<NAME>=1`` (``MCS_REQUIRE_DOCKER=1`` in CI). Nothing
+here imports the Docker SDK before it is needed, so a session that never uses the docker
+placement never loads it.
 """
 
 from __future__ import annotations
@@ -11,14 +13,57 @@ from __future__ import annotations
 import importlib.util
 import logging
 import os
+from typing import TYPE_CHECKING, NoReturn
 
 import pytest
 
-from multicosim.core.errors import MulticosimError
+from multicosim.core.errors import PlacementUnavailableError
 
-__all__ = ["docker_unavailable", "require_docker", "runtime_image", "sweep_containers"]
+if TYPE_CHECKING:
+    from multicosim.placement import Placement
+
+__all__ = [
+    "docker_unavailable",
+    "prepared",
+    "prepared_key",
+    "require_docker",
+    "runtime_image",
+    "sweep_containers",
+    "unavailable",
+]
 
 log = logging.getLogger(__name__)
+
+
+prepared_key = pytest.StashKey[dict[str, "PlacementUnavailableError | None"]]()
+"""Where ``config.stash`` keeps, by placement name, None for a placement prepared in this
+session, else why it cannot run (preparing docker's checks its image's source: once)."""
+
+
+def prepared(placement: Placement, config: pytest.Config) -> Placement:
+    """``placement``, prepared for a test (once per session); the test skips (or fails, see
+    the module) where the placement cannot run here."""
+    done = config.stash.setdefault(prepared_key, {})
+    if placement.name not in done:
+        try:
+            placement.prepare()
+            done[placement.name] = None
+        except PlacementUnavailableError as exc:
+            done[placement.name] = exc
+    problem = done[placement.name]
+    if problem is not None:
+        unavailable(placement.name, str(problem), problem.detail)
+    return placement
+
+
+def unavailable(name: str, reason: str, detail: str = "") -> NoReturn:
+    """Skip with the one-line ``reason``; fail, with ``detail``, under
+    ``MCS_REQUIRE_<NAME>=1`` (the placement's name, upper case)."""
+    variable = "MCS_REQUIRE_" + name.upper().replace("-", "_")
+    # Read when needed, not at import: a test may set it for a pytester run.
+    if os.environ.get(variable) == "1":
+        pytest.fail(f"{variable}=1 but {reason}: {detail}", pytrace=False)
+    pytest.skip(reason)
 
 
 def require_docker() -> None:
@@ -37,32 +82,21 @@ def require_docker() -> None:
         docker_unavailable(f"no Docker engine at {engine_url()}", reason)
 
 
-def docker_unavailable(reason: str, detail: str = "") -> None:
+def docker_unavailable(reason: str, detail: str = "") -> NoReturn:
     """Skip with the one-line ``reason``; fail, with ``detail``, under MCS_REQUIRE_DOCKER=1."""
-    # Read when needed, not at import: a test may set it for a pytester run.
-    if os.environ.get("MCS_REQUIRE_DOCKER") == "1":
-        pytest.fail(f"MCS_REQUIRE_DOCKER=1 but {reason}: {detail}", pytrace=False)
-    pytest.skip(reason)
+    unavailable("docker", reason, detail)
 
 
-def runtime_image() -> str:
+def runtime_image(config: pytest.Config) -> str:
     """The runtime image, rebuilt if the source changed; skips the test if there is none.
 
     An installed package cannot build it: it must then be present locally.
     """
-    require_docker()
-    from multicosim.docker import RUNTIME_IMAGE, build_images
-    from multicosim.docker.engine import ImageNotFound, client
+    from multicosim.docker import RUNTIME_IMAGE
+    from multicosim.placement import get_placement
 
-    try:
-        return build_images()[0]
-    except MulticosimError as exc:
-        try:
-            client().api.inspect_image(RUNTIME_IMAGE)
-        except ImageNotFound:
-            docker_unavailable(f"{RUNTIME_IMAGE} could not be built", str(exc))
-        log.warning("using %s as it is: %s", RUNTIME_IMAGE, exc)
-        return RUNTIME_IMAGE
+    prepared(get_placement("docker"), config)
+    return RUNTIME_IMAGE
 
 
 def sweep_containers(*, only_current_process: bool = False) -> None:

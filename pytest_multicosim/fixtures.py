@@ -1,8 +1,8 @@
 """The plugin's own ``mcs_*`` fixtures (registered by the plugin as a plugin of its own).
 
-Settings (``mcs_settings``, ``mcs_fidelity``, ``mcs_backend``, ``mcs_seed``), simulations
+Settings (``mcs_settings``, ``mcs_fidelity``, ``mcs_placement``, ``mcs_seed``), simulations
 that always stop (``mcs_simulations``, ``mcs_simulator``, ``mcs_fresh_simulation``), the
-runtime image of the docker backend (``mcs_runtime_image``) and the campaign executor
+runtime image of the docker placement (``mcs_runtime_image``) and the campaign executor
 (``mcs_campaign_executor``). Heavy imports happen inside the fixtures, so collecting a suite
 costs nothing.
 """
@@ -15,19 +15,19 @@ from typing import TYPE_CHECKING, Any
 import pytest
 
 from ._signals import SigtermAsInterrupt
-from .docker import require_docker, runtime_image
+from .docker import prepared, runtime_image
 from .options import Settings, settings_key
 from .simulations import Simulations, registry_key, tracked, view_key
 
 if TYPE_CHECKING:
-    from multicosim.docker import ContainerSimulator
-    from multicosim.local import ProcessSimulator
+    from multicosim.local import LocalSimulatorBase
+    from multicosim.placement import Placement
 
 __all__ = [
-    "mcs_backend",
     "mcs_campaign_executor",
     "mcs_fidelity",
     "mcs_fresh_simulation",
+    "mcs_placement",
     "mcs_runtime_image",
     "mcs_seed",
     "mcs_settings",
@@ -52,10 +52,19 @@ def mcs_fidelity(request: pytest.FixtureRequest) -> str:
     return str(getattr(request, "param", request.config.stash[settings_key].fidelity[0]))
 
 
-@pytest.fixture(scope="session")
-def mcs_backend(mcs_settings: Settings) -> str:
-    """The selected backend: ``process`` or ``docker``."""
-    return mcs_settings.backend
+@pytest.fixture
+def mcs_placement(
+    request: pytest.FixtureRequest, mcs_settings: Settings, mcs_fidelity: str
+) -> Placement:
+    """Where this test's components run: ``--mcs-placement``, else its fidelity's default
+    (``in-process`` at low, ``process`` above), made ready (the docker placement's runtime
+    image built). Skips, with the reason, where that placement cannot run here (a failure
+    with ``MCS_REQUIRE_<PLACEMENT>=1``, e.g. ``MCS_REQUIRE_DOCKER=1``)."""
+    from multicosim.core.fidelity import check_fidelity
+    from multicosim.placement import resolve
+
+    placement = resolve(mcs_settings.placement, check_fidelity(mcs_fidelity))
+    return prepared(placement, request.config)
 
 
 @pytest.fixture(scope="session")
@@ -80,30 +89,21 @@ def mcs_simulations(request: pytest.FixtureRequest) -> Iterator[Simulations]:
 
 
 @pytest.fixture(scope="session")
-def mcs_runtime_image() -> str:
+def mcs_runtime_image(request: pytest.FixtureRequest) -> str:
     """The runtime image that docker-backed scenarios run, rebuilt if the source changed.
 
     Skips (or, with ``MCS_REQUIRE_DOCKER=1``, fails) the test where no engine runs. An
     installed package cannot build it: it must then be present locally.
     """
-    return runtime_image()
+    return runtime_image(request.config)
 
 
 @pytest.fixture
 def mcs_simulator(
-    mcs_backend: str, mcs_seed: int, mcs_simulations: Simulations
-) -> ProcessSimulator | ContainerSimulator:
-    """A fresh simulator of the selected backend, seeded; its simulation always stops."""
-    if mcs_backend == "docker":
-        require_docker()
-        from multicosim.docker import ContainerSimulator
-
-        inner: ProcessSimulator | ContainerSimulator = ContainerSimulator(seed=mcs_seed)
-    else:
-        from multicosim.local import ProcessSimulator
-
-        inner = ProcessSimulator(seed=mcs_seed)
-    return tracked(inner, mcs_simulations)
+    mcs_placement: Placement, mcs_seed: int, mcs_simulations: Simulations
+) -> LocalSimulatorBase[Any]:
+    """A fresh simulator of the test's placement, seeded; its simulation always stops."""
+    return tracked(mcs_placement.simulator(seed=mcs_seed), mcs_simulations)
 
 
 @pytest.fixture(scope="session")

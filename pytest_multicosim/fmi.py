@@ -1,9 +1,10 @@
 """Fixtures for FMUs (registered by the multicosim plugin).
 
 ``fmu`` is a factory of :class:`multicosim.fmi.FMU` components that run where the test's
-fidelity and backend say: in-process at low fidelity, as a process at medium and high, in a
-container (its image built first) with ``--mcs-backend=docker``. Its simulators and
-simulations are stopped at teardown and recorded for the test's trace, whatever happens::
+placement says: in-process at low fidelity, as a process at medium and high (the fidelity's
+default), in a container (its image built first) with ``--mcs-placement=docker``. Its
+simulators and simulations are stopped at teardown and recorded for the test's trace,
+whatever happens::
 
     @pytest.mark.fidelity("low", "medium")
     def test_plant(fmu):
@@ -33,13 +34,12 @@ from typing import TYPE_CHECKING, Any
 
 import pytest
 
-from .docker import require_docker
 from .simulations import Simulations, tracked
 
 if TYPE_CHECKING:
-    from multicosim.docker import ContainerSimulator
-    from multicosim.fmi import FMU, Where
-    from multicosim.local import ProcessSimulator
+    from multicosim.fmi import FMU
+    from multicosim.local import LocalSimulatorBase
+    from multicosim.placement import Placement
 
 __all__ = ["REFERENCE_FMUS_ENV", "FMUFactory", "fmu", "reference_fmus"]
 
@@ -49,80 +49,52 @@ REFERENCE_FMUS_ENV = "MCS_REFERENCE_FMUS"
 class FMUFactory:
     """The ``fmu`` fixture: ``fmu(path, **options)`` is an FMU component for this test.
 
-    Options are those of :class:`multicosim.fmi.FMU`; ``where`` defaults to what the
-    test's fidelity and backend select (:attr:`where`).
+    Options are those of :class:`multicosim.fmi.FMU`; ``placement`` defaults to the test's
+    (:attr:`placement`).
     """
 
     def __init__(
         self,
-        request: pytest.FixtureRequest,
-        fidelity: str,
-        backend: str,
+        placement: Placement,
         seed: int,
         simulations: Simulations,
     ) -> None:
-        self._request = request
-        self.fidelity = fidelity
-        self.backend = backend
+        self.placement = placement
+        """Where this test's FMUs run: ``--mcs-placement``, else the fidelity's default."""
         self.seed = seed
         self._simulations = simulations
         self.made: list[FMU] = []
-
-    @property
-    def where(self) -> Where:
-        """Where this test's FMUs run: a container on the docker backend, else in-process
-        at low fidelity and as a process above."""
-        if self.backend == "docker":
-            return "container"
-        return "in-process" if self.fidelity == "low" else "process"
 
     def __call__(self, path: str | os.PathLike[str], **options: Any) -> FMU:
         """An FMU component (checked against its model description now)."""
         from multicosim.fmi import FMU
 
-        options.setdefault("where", self.where)
-        if options["where"] == "container":
-            require_docker()
-            self._request.getfixturevalue("mcs_runtime_image")
+        options.setdefault("placement", self.placement)
         component = FMU(path, **options)
         self.made.append(component)
         return component
 
-    def simulator(self) -> ProcessSimulator | ContainerSimulator:
-        """A fresh simulator of the test's backend and seed; what it starts is stopped (and
+    def simulator(self) -> LocalSimulatorBase[Any]:
+        """A fresh simulator of the test's placement and seed; what it starts is stopped (and
         recorded) as the test ends."""
-        if self.backend == "docker":
-            require_docker()
-            from multicosim.docker import ContainerSimulator
-
-            inner: ProcessSimulator | ContainerSimulator = ContainerSimulator(seed=self.seed)
-        else:
-            from multicosim.local import ProcessSimulator
-
-            inner = ProcessSimulator(seed=self.seed)
-        return tracked(inner, self._simulations)
+        return tracked(self.placement.simulator(seed=self.seed), self._simulations)
 
     def simulate(self, path: str | os.PathLike[str], *args: Any, **options: Any) -> Any:
         """:func:`multicosim.fmi.simulate` where this test's FMUs run, recorded for its trace."""
         from multicosim import fmi
 
-        where = options.pop("where", self.where)
-        if where == "container":
-            require_docker()
-            self._request.getfixturevalue("mcs_runtime_image")
-        return fmi.simulate(path, *args, where=where, simulator=self.simulator(), **options)
+        placement = options.pop("placement", self.placement)
+        return fmi.simulate(path, *args, placement=placement, simulator=self.simulator(), **options)
 
 
 @pytest.fixture
 def fmu(
-    request: pytest.FixtureRequest,
-    mcs_fidelity: str,
-    mcs_backend: str,
+    mcs_placement: Placement,
     mcs_seed: int,
     mcs_simulations: Simulations,
 ) -> FMUFactory:
-    """Factory of FMU components at this test's fidelity and backend (see the module)."""
-    return FMUFactory(request, mcs_fidelity, mcs_backend, mcs_seed, mcs_simulations)
+    """Factory of FMU components at this test's fidelity and placement (see the module)."""
+    return FMUFactory(mcs_placement, mcs_seed, mcs_simulations)
 
 
 @pytest.fixture(scope="session")

@@ -2,7 +2,7 @@
 
 ``gps_noise`` is a factory: each call puts a sensor injector into the PX4 or rover simulator
 of the test (whichever of ``px4_simulator`` and ``rover_simulator`` it uses), between the
-world and the firmware, at the test's fidelity and backend; on the ArduPilot simulators
+world and the firmware, at the test's fidelity and placement; on the ArduPilot simulators
 (``ardupilot_copter_simulator``, ``ardupilot_rover_simulator``) the same models become
 ArduPilot's own simulated sensor faults::
 

@@ -15,7 +15,8 @@ from pathlib import Path
 
 import pytest
 
-from multicosim.core.fidelity import BACKENDS, FIDELITIES
+from multicosim.core.fidelity import FIDELITIES, check_fidelity
+from multicosim.placement.registry import ENTRY_POINTS, default_placement, placement_names
 
 __all__ = [
     "KEEP_TRACES",
@@ -35,7 +36,7 @@ _ARTIFACTS_DEFAULT = "mcs-artifacts"
 # given on the command line (or in addopts).
 OPTION_DESTS = (
     "mcs_fidelity",
-    "mcs_backend",
+    "mcs_placement",
     "mcs_seed",
     "mcs_artifacts",
     "mcs_keep_traces",
@@ -50,16 +51,25 @@ class Settings:
     """The validated multicosim options of a pytest run."""
 
     fidelity: tuple[str, ...]
-    backend: str
+    placement: str | None
+    """The placement named (None: each fidelity's default)."""
     seed: int
     artifacts: Path
     keep_traces: str
     ray: str | None = None
 
     def replay_args(self, fidelity: str | None) -> str:
-        """Command-line options that replay a test with the same seed and fidelity."""
+        """Command-line options that replay a test with the same seed, fidelity and placement."""
         level = fidelity or ",".join(self.fidelity)
-        return f"--mcs-seed={self.seed} --mcs-fidelity={level} --mcs-backend={self.backend}"
+        placement = f" --mcs-placement={self.placement}" if self.placement else ""
+        return f"--mcs-seed={self.seed} --mcs-fidelity={level}{placement}"
+
+    def placement_for(self, fidelity: str | None) -> str:
+        """The name of the placement a test at ``fidelity`` runs in (None: the first level
+        selected, as the ``mcs_fidelity`` fixture gives a test not parametrized by level)."""
+        if self.placement is not None:
+            return self.placement
+        return default_placement(check_fidelity(fidelity or self.fidelity[0]))
 
 
 settings_key = pytest.StashKey[Settings]()
@@ -76,10 +86,11 @@ def add_options(parser: pytest.Parser) -> None:
         help="fidelity level(s) to run: low, medium, high, or a comma list (default: low)",
     )
     group.addoption(
-        "--mcs-backend",
-        dest="mcs_backend",
+        "--mcs-placement",
+        dest="mcs_placement",
         default=None,
-        help="where components run: process (default) or docker",
+        help="where components run: in-process, process, docker, or another registered "
+        "placement (default: in-process at low fidelity, process above)",
     )
     group.addoption(
         "--mcs-seed",
@@ -128,7 +139,7 @@ def add_options(parser: pytest.Parser) -> None:
         "(auto, local, ray://head:10001, ...; default: the local process pool)",
     )
     parser.addini("mcs_fidelity", "default for --mcs-fidelity", default="low")
-    parser.addini("mcs_backend", "default for --mcs-backend", default="process")
+    parser.addini("mcs_placement", "default for --mcs-placement", default="")
     parser.addini("mcs_seed", "default for --mcs-seed", default="0")
     parser.addini("mcs_artifacts", "default for --mcs-artifacts", default=_ARTIFACTS_DEFAULT)
     parser.addini("mcs_keep_traces", "default for --mcs-keep-traces", default="failed")
@@ -215,10 +226,12 @@ def _artifacts(config: pytest.Config) -> Path:
 def read_settings(config: pytest.Config) -> Settings:
     """The run's settings from its options and ini file; raise UsageError on a bad value."""
     fidelity = parse_fidelity(*_value(config, "mcs_fidelity"))
-    backend, source = _value(config, "mcs_backend")
-    if backend not in BACKENDS:
+    placement, source = _value(config, "mcs_placement")
+    names = placement_names()
+    if placement and placement not in names:
         raise pytest.UsageError(
-            f"{source}: {backend!r} is not a backend; allowed: {', '.join(BACKENDS)}"
+            f"{source}: {placement!r} is not a registered placement; allowed: "
+            f"{', '.join(names)} (the {ENTRY_POINTS!r} entry points)"
         )
     seed_text, source = _value(config, "mcs_seed")
     try:
@@ -240,4 +253,4 @@ def read_settings(config: pytest.Config) -> Settings:
         raise pytest.UsageError(
             f"{source}: {ray!r} needs Ray, which is not installed: pip install 'multicosim[ray]'"
         )
-    return Settings(fidelity, backend, seed, artifacts, keep, ray or None)
+    return Settings(fidelity, placement or None, seed, artifacts, keep, ray or None)

@@ -1,7 +1,7 @@
 """Fixtures of the PX4 scenario (registered by the multicosim plugin).
 
 ``px4_simulation`` is a started :class:`multicosim.px4.PX4Simulation` at the fidelity,
-backend and seed that the options and the ``fidelity`` marker select, stopped when the test
+placement and seed that the options and the ``fidelity`` marker select, stopped when the test
 ends whatever happens::
 
     @pytest.mark.fidelity("low", "medium")
@@ -11,7 +11,7 @@ ends whatever happens::
 
 ``px4_simulator`` is the unstarted :class:`multicosim.px4.PX4` (add injectors before
 starting it); ``px4_world`` (the world configuration) and ``px4_params`` can be overridden
-in a module or conftest. With ``--mcs-backend=docker`` the world and the autopilot run as
+in a module or conftest. With ``--mcs-placement=docker`` the world and the autopilot run as
 containers of the runtime image (rebuilt first if the source changed); where no Docker
 engine runs the test is skipped with the reason (a failure with ``MCS_REQUIRE_DOCKER=1``).
 
@@ -37,6 +37,7 @@ from .fidelity import deselect
 from .simulations import tracked
 
 if TYPE_CHECKING:
+    from multicosim.placement import Placement
     from multicosim.px4 import PX4, SITL, MuJoCo, PX4Simulation
 
 __all__ = [
@@ -66,18 +67,11 @@ class RealPX4:
         """Whether any real PX4 is configured."""
         return bool(self.image or self.binary)
 
-    def sitl(self, backend: str = "process") -> SITL:
-        """The firmware for ``px4.PX4(firmware=...)`` on ``backend``."""
+    def sitl(self) -> SITL:
+        """The firmware for ``px4.PX4(firmware=...)``: the binary, the image, or both."""
         from multicosim.px4 import SITL
 
-        if backend == "docker":
-            return SITL(binary=self.binary, image=self.image)
-        if self.binary is None:
-            pytest.skip(
-                "real PX4 on the process backend needs a binary (--mcs-px4-binary); "
-                "an image (--mcs-px4-image) runs with --mcs-backend=docker"
-            )
-        return SITL(binary=self.binary)
+        return SITL(binary=self.binary, image=self.image)
 
     def __repr__(self) -> str:
         return f"RealPX4(image={self.image!r}, binary={self.binary!r})"
@@ -143,7 +137,7 @@ def px4_params() -> dict[str, float]:
 def px4_simulator(
     request: pytest.FixtureRequest,
     mcs_fidelity: str,
-    mcs_backend: str,
+    mcs_placement: Placement,
     mcs_seed: int,
     mcs_simulations: Any,
     px4_world: MuJoCo | None,
@@ -151,10 +145,9 @@ def px4_simulator(
     px4_autopilot: str,
 ) -> PX4:
     """An unstarted PX4 Simulator; whatever it starts is stopped at teardown."""
-    from multicosim.px4 import BACKENDS, PX4
+    from multicosim.core.errors import ConfigurationError
+    from multicosim.px4 import PX4
 
-    if mcs_backend not in BACKENDS:
-        pytest.skip(f"the PX4 scenario does not run on the {mcs_backend!r} backend")
     firmware = None
     if px4_autopilot == "sitl":
         if mcs_fidelity == "low":
@@ -162,17 +155,21 @@ def px4_simulator(
                 "real PX4 flies the MuJoCo world (medium, high); low fidelity is the "
                 "built-in autopilot's point mass"
             )
-        firmware = real_px4(request.config).sitl(mcs_backend)
-    if mcs_backend == "docker":
-        request.getfixturevalue("mcs_runtime_image")
-    simulator = PX4(
-        px4_world,
-        fidelity=check_fidelity(mcs_fidelity),
-        backend=mcs_backend,
-        seed=mcs_seed,
-        params=px4_params,
-        firmware=firmware,
-    )
+        firmware = real_px4(request.config).sitl()
+    try:
+        simulator = PX4(
+            px4_world,
+            fidelity=check_fidelity(mcs_fidelity),
+            placement=mcs_placement,
+            seed=mcs_seed,
+            params=px4_params,
+            firmware=firmware,
+        )
+    except ConfigurationError as exc:
+        if firmware is None or exc.field != "firmware":
+            raise
+        # The real PX4 configured cannot run in this placement (an image, on this machine).
+        pytest.skip(f"real PX4 as configured does not run here: {exc}")
     return tracked(simulator, mcs_simulations)
 
 

@@ -2,7 +2,7 @@
 
 A failing test gets a ``multicosim`` report section: a one-line verdict (for a requirement,
 where it was first violated), the command that replays it with the same seed, fidelity and
-backend, the saved artifacts and the last output of each component. JUnit XML (and other
+placement, the saved artifacts and the last output of each component. JUnit XML (and other
 report readers) get the same facts as the test's ``user_properties``.
 """
 
@@ -25,16 +25,17 @@ _KINDS = {".mcap": "trace", ".json": "layout", ".tlog": "mavlink", ".png": "plot
 
 
 def header(config: pytest.Config) -> str:
-    """The session's header line: the selected fidelity, backend, seed and artifacts."""
+    """The session's header line: the selected fidelity, placement, seed and artifacts."""
     s = config.stash[settings_key]
     return (
-        f"multicosim: fidelity={','.join(s.fidelity)} backend={s.backend} seed={s.seed} "
+        f"multicosim: fidelity={','.join(s.fidelity)} placement={s.placement or 'default'} "
+        f"seed={s.seed} "
         f"keep-traces={s.keep_traces} artifacts={s.artifacts}"
     )
 
 
 def replay_command(settings: Settings, item: pytest.Item) -> str:
-    """The command that runs ``item`` again with the same seed, fidelity and backend.
+    """The command that runs ``item`` again with the same seed, fidelity and placement.
 
     The test is named by its absolute path and pytest by the interpreter that runs this
     session (``/path/to/python -m pytest``), so the command works from any directory, with
@@ -103,7 +104,7 @@ def annotate(item: pytest.Item, call: pytest.CallInfo[None], report: pytest.Test
         )
     lines.append(
         f"seed {settings.seed}, fidelity {fidelity or ','.join(settings.fidelity)}, "
-        f"backend {settings.backend}"
+        f"placement {settings.placement_for(fidelity)}"
     )
     view = item.stash.get(view_key, None)
     if view is not None and keep:

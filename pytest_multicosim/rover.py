@@ -1,7 +1,7 @@
 """Fixtures of the rover scenario (registered by the multicosim plugin).
 
 ``rover_simulation`` is a started :class:`multicosim.rover.RoverSimulation` at the fidelity,
-backend and seed the options and the ``fidelity`` marker select; it is stopped when the
+placement and seed the options and the ``fidelity`` marker select; it is stopped when the
 test ends, whatever happens::
 
     @pytest.mark.fidelity("low", "medium")
@@ -11,7 +11,7 @@ test ends, whatever happens::
 
 ``rover_simulator`` is the unstarted :class:`multicosim.rover.Rover`, for tests that add
 components (an injector between world and controller) before starting it.
-With ``--mcs-backend=docker`` the world and the controller run as containers of the runtime
+With ``--mcs-placement=docker`` the world and the controller run as containers of the runtime
 image (rebuilt first if the source changed); where no Docker engine runs the test is skipped
 with the reason (a failure with ``MCS_REQUIRE_DOCKER=1``).
 Heavy imports happen inside the fixtures, so collecting a suite costs nothing.
@@ -29,6 +29,7 @@ from .simulations import tracked
 
 if TYPE_CHECKING:
     from multicosim.physics import WorldConfig
+    from multicosim.placement import Placement
     from multicosim.rover import Rover, RoverSimulation, SensorNoise
 
 __all__ = [
@@ -56,24 +57,19 @@ def rover_noise() -> SensorNoise | None:
 
 @pytest.fixture
 def rover_simulator(
-    request: pytest.FixtureRequest,
     mcs_fidelity: str,
-    mcs_backend: str,
+    mcs_placement: Placement,
     mcs_seed: int,
     mcs_simulations: Any,
     rover_world_config: WorldConfig | None,
     rover_noise: SensorNoise | None,
 ) -> Rover:
     """An unstarted rover Simulator; whatever it starts is stopped at teardown."""
-    from multicosim.rover import BACKENDS, Rover
+    from multicosim.rover import Rover
 
-    if mcs_backend not in BACKENDS:
-        pytest.skip(f"the rover scenario does not run on the {mcs_backend!r} backend")
-    if mcs_backend == "docker":
-        request.getfixturevalue("mcs_runtime_image")
     rover = Rover(
         fidelity=check_fidelity(mcs_fidelity),
-        backend=mcs_backend,
+        placement=mcs_placement,
         seed=mcs_seed,
         world=rover_world_config,
         noise=rover_noise,

@@ -161,15 +161,15 @@ def test_a_failing_spoof_property_leaves_a_trace_and_a_plot(pytester: pytest.Pyt
             "*: test_spoofs_keep_tracking(",
             "*spoof=build(5, 0, 3),",  # shrunk: 5 m north from 3 s
             "replay: * -m pytest *test_spoof.py::test_spoofs_keep_tracking* --mcs-seed=0*",
-            "trace: */test_spoof.py_test_spoofs_keep_tracking_low/seed-0-process/trace.mcap",
-            "plot: */test_spoof.py_test_spoofs_keep_tracking_low/seed-0-process/trace.png",
+            "trace: */test_spoof.py_test_spoofs_keep_tracking_low/seed-0-in-process/trace.mcap",
+            "plot: */test_spoof.py_test_spoofs_keep_tracking_low/seed-0-in-process/trace.png",
         ]
     )
     directory = (
         pytester.path
         / "artifacts"
         / "test_spoof.py_test_spoofs_keep_tracking_low"
-        / "seed-0-process"
+        / "seed-0-in-process"
     )
     assert (directory / "trace.png").read_bytes().startswith(b"\x89PNG")
     trace = read_trace(directory / "trace.mcap")

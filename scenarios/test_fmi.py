@@ -24,6 +24,8 @@ import multicosim as mcs
 import multicosim.attacks as attacks
 import multicosim.rover as rover
 from multicosim import fmi
+from multicosim.core.fidelity import check_fidelity
+from multicosim.placement import default_placement
 from multicosim.search.falsify import falsify
 from pytest_multicosim.fmi import FMUFactory
 
@@ -178,13 +180,12 @@ REQUIREMENT = "always[1.0, 3.0] (h <= 0.8)"
 
 
 def _bounce(fmu_path: Path, sample: dict[str, Any], fidelity: str) -> Any:
-    where: fmi.Where = "in-process" if fidelity == "low" else "process"
     return fmi.simulate(
         fmu_path,
         stop_time=3.0,
         parameters={"e": sample["e"]},
         start_values={"h": sample["h"]},
-        where=where,
+        placement=default_placement(check_fidelity(fidelity)),
     )
 
 

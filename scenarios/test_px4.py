@@ -128,7 +128,7 @@ def test_same_seed_gives_the_same_trajectory(
     again = px4.PX4(
         px4_simulator.world,
         fidelity=px4_simulator.fidelity,
-        backend=px4_simulator.backend,
+        placement=px4_simulator.placement,
         seed=mcs_seed,
         params=px4_params,
         firmware=px4_simulator.firmware,

@@ -132,7 +132,7 @@ def test_same_seed_same_trajectory(
     mission = Mission(speed=3.0, wait=0.2, distance=3.0, final_distance=3.0)
     again = rover.Rover(
         fidelity=rover_simulator.fidelity,
-        backend=rover_simulator.backend,
+        placement=rover_simulator.placement,
         seed=rover_simulator.seed,
         world=rover_simulator.config.world,
         noise=rover_simulator.config.noise,

@@ -380,6 +380,7 @@ API = (
     "multicosim.testing",
     "multicosim.local",
     "multicosim.runtime",
+    "multicosim.placement",
     "multicosim.docker",
     "multicosim.physics",
     "multicosim.px4",

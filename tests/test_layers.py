@@ -130,3 +130,108 @@ def test_the_check_sees_private_imports() -> None:
     assert "multicosim.rover._scenario" in found
     assert _owner("multicosim.rover._scenario") == _owner("multicosim.rover") == "multicosim.rover"
     assert _owner("multicosim.testing") == "multicosim"
+
+
+# -- placements, neutral layers and private state ---------------------------------------------
+
+PLACEMENT_PACKAGES = ("multicosim.placement", "multicosim.docker", "multicosim.ray")
+"""Where components are placed: the only packages that may ask which placement runs."""
+_SETTINGS = {"backend", "placement", "where", "in_process"}
+_KINDS = {"docker", "process", "in-process", "container", "ray"}
+
+
+def _tree(module: str) -> ast.AST:
+    path = MODULES[module]
+    return ast.parse(path.read_text(encoding="utf-8"), str(path))
+
+
+def _names_a_setting(node: ast.expr) -> bool:
+    text = ast.unparse(node)
+    return any(word in text for word in _SETTINGS)
+
+
+def _kinds(node: ast.expr) -> bool:
+    """Whether ``node`` is a placement's name, or a collection of them."""
+    items = node.elts if isinstance(node, ast.Tuple | ast.List | ast.Set) else [node]
+    return any(isinstance(i, ast.Constant) and i.value in _KINDS for i in items)
+
+
+def _placement_switches(tree: ast.AST) -> Iterator[int]:
+    """Lines that decide by a placement's (or an old backend's) name, or by the container
+    environment's class: there the placement should be asked instead."""
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Compare):
+            sides = [node.left, *node.comparators]
+            kinds = [s for s in sides if _kinds(s)]
+            if kinds and any(_names_a_setting(s) for s in sides if s not in kinds):
+                yield node.lineno
+        elif (
+            isinstance(node, ast.Call)
+            and isinstance(node.func, ast.Name)
+            and node.func.id == "isinstance"
+            and any("ContainerEnvironment" in ast.unparse(arg) for arg in node.args[1:])
+        ):
+            yield node.lineno
+
+
+def test_no_placement_switch_outside_the_placements() -> None:
+    offences = [
+        f"{MODULES[module].relative_to(ROOT)}:{line}"
+        for module in MODULES
+        if not module.startswith(PLACEMENT_PACKAGES)
+        for line in _placement_switches(_tree(module))
+    ]
+    assert not offences, "placement decided outside the placements (ask it):\n" + "\n".join(
+        offences
+    )
+
+
+def test_the_switch_check_sees_a_switch() -> None:
+    # The check itself: it finds what it is written to refuse, and passes what is fine.
+    source = "\n".join(
+        [
+            'if backend == "docker": pass',
+            'if self.placement.name != "process": pass',
+            "if isinstance(environment, docker.ContainerEnvironment): pass",
+            'if where in ("container", "process"): pass',
+            'if fidelity == "low": pass',
+            'if vehicle == "rover": pass',
+        ]
+    )
+    assert list(_placement_switches(ast.parse(source))) == [1, 2, 3, 4]
+
+
+def _private_names_defined(module: str) -> set[str]:
+    """The private names ``module`` defines: methods, functions, class and instance attributes."""
+    found: set[str] = set()
+    for node in ast.walk(_tree(module)):
+        if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef | ast.ClassDef):
+            found.add(node.name)
+        elif isinstance(node, ast.Attribute) and isinstance(node.ctx, ast.Store):
+            found.add(node.attr)
+        elif isinstance(node, ast.Name) and isinstance(node.ctx, ast.Store):
+            found.add(node.id)
+    return {n for n in found if n.startswith("_") and not n.startswith("__")}
+
+
+def _private_reads(module: str, theirs: dict[str, set[str]]) -> Iterator[str]:
+    """Reads in ``module`` of another package's private attribute (``x._name`` where only
+    another package of ours defines ``_name``)."""
+    own = theirs[_owner(module)]
+    others = set().union(*(names for owner, names in theirs.items() if owner != _owner(module)))
+    for node in ast.walk(_tree(module)):
+        if not isinstance(node, ast.Attribute) or not node.attr.startswith("_"):
+            continue
+        if node.attr.startswith("__") or node.attr in own or node.attr not in others:
+            continue
+        if isinstance(node.value, ast.Name) and node.value.id in ("self", "cls"):
+            continue
+        yield f"{MODULES[module].relative_to(ROOT)}:{node.lineno} reads .{node.attr}"
+
+
+def test_no_package_reads_another_packages_private_attributes() -> None:
+    defined: dict[str, set[str]] = {}
+    for module in MODULES:
+        defined.setdefault(_owner(module), set()).update(_private_names_defined(module))
+    offences = [line for module in MODULES for line in _private_reads(module, defined)]
+    assert not offences, "private attributes of another package read:\n" + "\n".join(offences)

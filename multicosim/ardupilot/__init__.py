@@ -35,12 +35,10 @@ from ..mavlink.params import read_params
 from ..physics.config import WorldConfig
 
 _LAZY = {
-    "BACKENDS": "._simulator",
     "FIRMWARE_FIDELITIES": "._simulator",
     "ArduPilotComponent": "._simulator",
     "ArduPilotNode": "._simulator",
     "ArduPilotSimulation": "._simulator",
-    "Backend": "._simulator",
     "Copter": "._simulator",
     "Fidelity": "._simulator",
     "Rover": "._simulator",
@@ -49,13 +47,11 @@ _LAZY = {
 }
 
 __all__ = [
-    "BACKENDS",
     "FIRMWARE_FIDELITIES",
     "SITL",
     "ArduPilotComponent",
     "ArduPilotNode",
     "ArduPilotSimulation",
-    "Backend",
     "Configuration",
     "Copter",
     "Fidelity",
@@ -73,12 +69,10 @@ __all__ = [
 
 if TYPE_CHECKING:
     from ._simulator import (
-        BACKENDS,
         FIRMWARE_FIDELITIES,
         ArduPilotComponent,
         ArduPilotNode,
         ArduPilotSimulation,
-        Backend,
         Copter,
         Fidelity,
         Rover,

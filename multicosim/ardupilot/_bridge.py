@@ -364,7 +364,7 @@ class JsonBridge(Lockstep):
     def _send_uplink(self) -> None:
         """Send the ground station's frames to ArduPilot (held until its link is known)."""
         up = self._up
-        if up is not None and up._deliveries:
+        if up is not None and up.fresh:
             self._backlog.extend(p.data for p in up.messages)
         link = self._link
         if link is not None and self._backlog:

@@ -3,13 +3,13 @@
 ========  ==========================================  ========================================
 fidelity  world                                       ArduPilot
 ========  ==========================================  ========================================
-medium    MuJoCo, one 2.5 ms step per physics frame   real SITL: a local process
-          (400 Hz, ArduPilot's loop rate)             (``backend="process"``) or a container
-high      MuJoCo at 0.5 ms, five steps per frame,     of its image on the simulation's network
-          more solver iterations                      (``backend="docker"``)
+medium    MuJoCo, one 2.5 ms step per physics frame   real SITL: a local process (the
+          (400 Hz, ArduPilot's loop rate)             ``process`` placement, the default) or
+high      MuJoCo at 0.5 ms, five steps per frame,     a container of its image on the
+          more solver iterations                      simulation's network (``docker``)
 ========  ==========================================  ========================================
 
-The world and ArduPilot's JSON bridge run in this process on both backends (one lockstep
+The world and ArduPilot's JSON bridge run in this process in every placement (one lockstep
 exchange per physics frame); the ground station behind ``simulation.firmware.send`` too.
 There is no low fidelity: ArduPilot flies the MuJoCo world.
 """
@@ -18,42 +18,46 @@ from __future__ import annotations
 
 import dataclasses
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, cast
+from typing import TYPE_CHECKING, Any
 
 from ..core.errors import ConfigurationError, NodeStartError
-from ..core.fidelity import BACKENDS, FIRMWARE_FIDELITIES, Backend, FirmwareFidelity
+from ..core.fidelity import FIRMWARE_FIDELITIES, FirmwareFidelity
 from ..core.geo import Home
-from ..core.interfaces import Component, Node, NodeId
+from ..core.interfaces import Node, NodeId
 from ..local import (
     InProcessComponent,
     InProcessFirmwareComponent,
     LocalEnvironment,
     ProcessSimulation,
-    ProcessSimulator,
-    ScenarioSimulation,
-    required_images,
 )
 from ..mavlink.gcs import GcsSpec, Procedure, ground_station
 from ..mavlink.mission import Configuration, Geofence
 from ..mavlink.node import MissionNode
 from ..physics.config import WorldConfig
+from ..placement import Placement, Scenario, ScenarioSimulation, resolve
+from ..placement.firmware import preflight_program
 from ..rover import MAX_SPEED
 from ._bridge import DOWNLINK, SERVO_TOPIC, TRUTH_TOPIC, UPLINK
 from ._frames import FRAME_RATE, copter_params, rover_params
-from .launch import NO_RC_RECEIVER, SITL, ArduPilotNodes, Vehicle, check_params, start_ardupilot
+from .launch import (
+    NO_RC_RECEIVER,
+    SITL,
+    ArduPilotNodes,
+    Vehicle,
+    check_params,
+    image_of,
+    start_ardupilot,
+)
 
 if TYPE_CHECKING:
-    from ..docker import ContainerEnvironment, ContainerSimulator
     from ..trace import TraceOptions
     from .faults import FaultsComponent
 
 __all__ = [
-    "BACKENDS",
     "FIRMWARE_FIDELITIES",
     "ArduPilotComponent",
     "ArduPilotNode",
     "ArduPilotSimulation",
-    "Backend",
     "Copter",
     "Fidelity",
     "Rover",
@@ -131,18 +135,23 @@ class WorldComponent:
 class ArduPilotNode(MissionNode):
     """The ArduPilot firmware node: ``send(Configuration) -> MissionResult`` flies a mission."""
 
-    _autopilot: ArduPilotNodes
-    _component: ArduPilotComponent
+    autopilot_node: ArduPilotNodes
+    component: ArduPilotComponent
 
     @property
     def instance(self) -> int:
         """ArduPilot's instance number (its ports are offset by ten times it)."""
-        return self._autopilot.instance
+        return self.autopilot_node.instance
+
+    @property
+    def firmware_nodes(self) -> ArduPilotNodes:
+        """ArduPilot's program and its bridge."""
+        return self.autopilot_node
 
     def check(self, msg: Configuration) -> None:
         """Raise ConfigurationError if ``msg`` cannot be flown (or driven)."""
         super().check(msg)
-        if self._component.vehicle == "rover" and msg.cruise_speed >= MAX_SPEED:
+        if self.component.vehicle == "rover" and msg.cruise_speed >= MAX_SPEED:
             raise ConfigurationError(
                 "cruise_speed", msg.cruise_speed, f"below the rover's top speed ({MAX_SPEED:g} m/s)"
             )
@@ -155,8 +164,9 @@ class ArduPilotComponent:
     ``vehicle`` is ``"copter"`` or ``"rover"``; ``firmware`` where ArduPilot comes from;
     ``world`` where home is (ArduPilot's ``--home``) and what its physics period is;
     ``params`` are set at boot, after the frame's (:mod:`._frames`); ``geofence`` bounds
-    missions. ArduPilot runs as a process, or as a container of ``firmware.image`` in a
-    ContainerSimulator; its bridge and the ground station run in this process.
+    missions. ArduPilot runs where ``placement`` runs programs (None: a local process; a
+    container of its image with ``"docker"``); its bridge and the ground station run in
+    this process.
     """
 
     vehicle: Vehicle
@@ -166,6 +176,7 @@ class ArduPilotComponent:
     geofence: Geofence = dataclasses.field(default_factory=Geofence)
     params: dict[str, float] = dataclasses.field(default_factory=dict)
     telemetry_rate: float = 20.0
+    placement: str | Placement | None = None
 
     def __post_init__(self) -> None:
         if self.vehicle not in ("copter", "rover"):
@@ -182,10 +193,18 @@ class ArduPilotComponent:
         check_params(self.params)
         self.firmware.check(self.vehicle)
         frame_period(self.world)
+        self.required_images()
 
     def required_images(self) -> tuple[str, ...]:
-        """ArduPilot's image, if it runs in one (checked before a ContainerSimulator starts)."""
-        return (self.firmware.image,) if self.firmware.image is not None else ()
+        """The images its placement needs (ConfigurationError if it cannot run ArduPilot)."""
+        return preflight_program(
+            resolve(self.placement, "medium"),
+            self.name,
+            command=self.firmware.directory is not None,
+            image=image_of(self.firmware),
+            needs="ArduPilot SITL's directory (firmware_dir=...) to run it on this machine, "
+            "or an image (image=...) with placement='docker'",
+        )
 
     def boot_params(self) -> dict[str, float]:
         """The parameters ArduPilot boots with: no RC receiver (``NO_RC_RECEIVER``), the
@@ -210,6 +229,7 @@ class ArduPilotComponent:
         group = start_ardupilot(
             self.firmware,
             self.vehicle,
+            resolve(self.placement, "medium"),
             environment,
             name=name,
             period=frame_period(self.world),
@@ -262,13 +282,13 @@ class ArduPilotSimulation(ScenarioSimulation):
         simulated second) before handing the simulation out. NodeStartError, with its output
         tail, if it has not spoken MAVLink within ``limit`` simulated seconds.
         """
-        autopilot = self.firmware._autopilot
+        autopilot = self.firmware.firmware_nodes
         bridge = autopilot.bridge
         assert bridge is not None
         deadline = self.time + limit
         while not bridge.linked:
             if self.time >= deadline:
-                process = autopilot.process
+                process = autopilot.program
                 raise NodeStartError(
                     self.firmware.name,
                     f"sent no MAVLink within {limit:g} simulated seconds of its start",
@@ -279,7 +299,7 @@ class ArduPilotSimulation(ScenarioSimulation):
     @property
     def home(self) -> Home:
         """Where ArduPilot's home is (latitude, longitude, altitude AMSL): the world's origin."""
-        return self.firmware._component.world.home
+        return self.firmware.component.world.home
 
     def trace_options(self) -> TraceOptions:
         """What a recorder of this simulation should know: the MAVLink link decoded, the
@@ -287,7 +307,7 @@ class ArduPilotSimulation(ScenarioSimulation):
         from ..mavlink.trace import mission_trace
         from ._bridge import ServoOutputs
 
-        world = self.firmware._component.world
+        world = self.firmware.component.world
         return mission_trace(
             uplink=UPLINK,
             downlink=DOWNLINK,
@@ -301,10 +321,10 @@ class ArduPilotSimulation(ScenarioSimulation):
     def flight_logs(self) -> list[Path]:
         """ArduPilot's DataFlash logs so far (``logs/*.BIN``; MAVExplorer and UAV Log Viewer
         read them). From a container they are copied into the run directory first."""
-        return self.firmware._autopilot.flight_logs(self.simulation.run_dir / "ardupilot-logs")
+        return self.firmware.firmware_nodes.flight_logs(self.run_dir / "ardupilot-logs")
 
 
-class _ArduPilotSimulator:
+class _ArduPilotSimulator(Scenario[ArduPilotSimulation]):
     """A Simulator with the MuJoCo world and ArduPilot already added."""
 
     vehicle: Vehicle = "copter"
@@ -317,7 +337,7 @@ class _ArduPilotSimulator:
         firmware_dir: str | None = None,
         image: str | None = None,
         firmware: SITL | None = None,
-        backend: Backend = "process",
+        placement: str | Placement | None = None,
         seed: int = 0,
         params: dict[str, float] | None = None,
         geofence: Geofence | None = None,
@@ -326,8 +346,6 @@ class _ArduPilotSimulator:
         run_dir: str | None = None,
     ) -> None:
         _check_fidelity(fidelity)
-        if backend not in BACKENDS:
-            raise ConfigurationError("backend", backend, f"one of {BACKENDS}")
         if firmware is None:
             firmware = SITL(directory=firmware_dir, image=image)
         elif firmware_dir is not None or image is not None:
@@ -336,28 +354,10 @@ class _ArduPilotSimulator:
             )
         if not isinstance(firmware, SITL):
             raise ConfigurationError("firmware", firmware, "a multicosim.ardupilot.SITL")
-        if backend == "process" and firmware.directory is None:
-            raise ConfigurationError(
-                "firmware_dir",
-                None,
-                "ArduPilot SITL's directory on the process backend (an image runs on "
-                "backend='docker')",
-            )
         world = world if world is not None else default_world(self.vehicle, fidelity)
         if not isinstance(world, WorldConfig):
             raise ConfigurationError("world", world, "a multicosim.physics.WorldConfig")
         world = dataclasses.replace(world, period=frame_period(world))
-        self.world = world
-        self.fidelity: Fidelity = fidelity
-        self.backend: Backend = backend
-        self._sim: ProcessSimulator | ContainerSimulator
-        if backend == "docker":
-            from ..docker import ContainerSimulator
-
-            self._sim = ContainerSimulator(seed=seed, realtime=realtime, run_dir=run_dir)
-        else:
-            self._sim = ProcessSimulator(seed=seed, realtime=realtime, run_dir=run_dir)
-        self.world_id: NodeId[Node] = self._sim.add(WorldComponent(world, self.vehicle))
         self._firmware = ArduPilotComponent(
             self.vehicle,
             firmware,
@@ -365,8 +365,14 @@ class _ArduPilotSimulator:
             geofence=geofence or Geofence(),
             params=dict(params or {}),
             telemetry_rate=telemetry_rate,
+            placement=placement,
         )
-        self.firmware_id: NodeId[ArduPilotNode] = self._sim.add(self._firmware)
+        super().__init__(
+            fidelity=fidelity, placement=placement, seed=seed, realtime=realtime, run_dir=run_dir
+        )
+        self.world = world
+        self.world_id: NodeId[Node] = self._add_own(WorldComponent(world, self.vehicle))
+        self.firmware_id: NodeId[ArduPilotNode] = self._add_own(self._firmware, anchor=True)
 
     @property
     def firmware(self) -> SITL:
@@ -377,18 +383,6 @@ class _ArduPilotSimulator:
     def params(self) -> dict[str, float]:
         """The parameters given to ArduPilot (besides the frame's)."""
         return dict(self._firmware.params)
-
-    def add(self, component: Component[ContainerEnvironment, Any]) -> NodeId[Any]:
-        """Add another component (an injector, a monitor), stepped before ArduPilot's bridge."""
-        if self.backend != "docker" and required_images(component):
-            raise ConfigurationError(
-                "component",
-                component,
-                "a component of the process backend (containers need backend='docker')",
-            )
-        return self._sim.add(
-            cast("Component[LocalEnvironment, Any]", component), before=self.firmware_id
-        )
 
     def inject_faults(
         self, sensor: str, models: Any, *, name: str | None = None
@@ -413,18 +407,7 @@ class _ArduPilotSimulator:
 
     def start(self) -> ArduPilotSimulation:
         """Start the world and ArduPilot (and anything added); return the simulation."""
-        sitl = self._firmware.firmware
-        if self.backend == "docker" and sitl.image is None:
-            # ArduPilot in a container: its image is built from the directory (once; a
-            # build whose inputs did not change is skipped).
-            from ..docker import build_ardupilot
-
-            image = build_ardupilot(sitl.path)
-            self._firmware = dataclasses.replace(
-                self._firmware, firmware=dataclasses.replace(sitl, image=image)
-            )
-            self._sim.replace(self.firmware_id, self._firmware)
-        simulation = ArduPilotSimulation(self._sim.start(), self.firmware_id, self.world_id)
+        simulation = ArduPilotSimulation(self._start_simulation(), self.firmware_id, self.world_id)
         try:
             simulation.boot()
         except BaseException:
@@ -434,8 +417,8 @@ class _ArduPilotSimulator:
 
     def __repr__(self) -> str:
         return (
-            f"{type(self).__name__}(fidelity={self.fidelity!r}, backend={self.backend!r}, "
-            f"firmware={self.firmware!r})"
+            f"{type(self).__name__}(fidelity={self.fidelity!r}, "
+            f"placement={self.placement.name!r}, firmware={self.firmware!r})"
         )
 
 

@@ -188,7 +188,7 @@ class SimulatedFaults:
 
     def _confirm(self) -> None:
         down = self._down
-        if down is None or not down._deliveries or not self._pending:
+        if down is None or not down.fresh or not self._pending:
             return
         for packet in down.messages:
             for m in decode_frames(self._mav, packet.data):

@@ -31,23 +31,21 @@ import os
 import socket
 import sys
 import threading
-import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
 from ..core.errors import ConfigurationError, NodeStartError
 from ..core.geo import Home
-from ..core.interfaces import Node
-from ..local import ending, mark_reported
+from ..core.interfaces import Component, Node
 from ..mavlink.params import PARAM_NAME
-from ..mavlink.sitl import (
-    SitlNodes,
+from ..placement import Endpoint, Placement, ProgramSpec
+from ..placement.firmware import (
+    FirmwareNodes,
+    ProgramNode,
     check_first_instance,
-    copy_out,
-    is_container_environment,
+    launch,
     param_value,
-    run_container,
     udp_free,
 )
 from ._bridge import JsonBridge, PeerCheck, process_ports
@@ -60,9 +58,11 @@ __all__ = [
     "NO_RC_RECEIVER",
     "SIM_PORT",
     "SITL",
+    "ArduPilotLaunch",
     "ArduPilotNodes",
     "Vehicle",
     "claim_instance",
+    "image_of",
     "launch_command",
     "start_ardupilot",
 ]
@@ -335,34 +335,11 @@ def container_command(
 # -- starting it ----------------------------------------------------------------------------
 
 
-def start_error(name: str, what: str, watch: Any, exit_code: int | None = None) -> NodeStartError:
-    """A NodeStartError for ArduPilot with its output tail (its exit remembered as reported)."""
-    if exit_code is not None:
-        mark_reported(watch)
-    return NodeStartError(name, what, exit_code=exit_code, log_tail=watch.log_tail())
+# -- starting it ----------------------------------------------------------------------------
 
 
-def wait_started(bridge: JsonBridge, process: Any, name: str, timeout: float) -> None:
-    """Wait for ArduPilot's first servo packet; NodeStartError with its output if none comes."""
-    deadline = time.monotonic() + timeout
-    while not bridge.poll_started():
-        code = process.poll()
-        if code is not None:
-            raise start_error(
-                name, f"{ending(process)} before it sent a servo packet", process, code
-            )
-        if time.monotonic() > deadline:
-            raise start_error(
-                name,
-                f"sent no servo packet to its simulator (UDP port {bridge.physics_port}) "
-                f"within {timeout:g} s",
-                process,
-            )
-        time.sleep(0.01)
-
-
-class ArduPilotNodes(SitlNodes):
-    """ArduPilot's process or container with its bridge: stopped as one, in reverse order."""
+class ArduPilotNodes(FirmwareNodes):
+    """ArduPilot's program with its bridge: stopped as one, in reverse start order."""
 
     def __init__(self, name: str) -> None:
         super().__init__(name)
@@ -370,12 +347,7 @@ class ArduPilotNodes(SitlNodes):
 
     def flight_logs(self, into: Path) -> list[Path]:
         """ArduPilot's DataFlash logs (``logs/*.BIN``), copied out of a container into ``into``."""
-        container = getattr(self.process, "container", None)
-        if container is not None:
-            return copy_out(container, f"{CONTAINER_WORKDIR}/logs", into, ".BIN")
-        if self.rootfs is None:
-            return []
-        return sorted((self.rootfs / "logs").glob("*.BIN"))
+        return self.files("logs", ".BIN", into)
 
     def stop(self) -> None:
         """Stop ArduPilot (answering its servo packets meanwhile, so that it can), then the rest.
@@ -383,7 +355,7 @@ class ArduPilotNodes(SitlNodes):
         ArduPilot handles SIGTERM between physics steps, finishing its DataFlash log; while
         it waits for an answer it cannot, so the bridge keeps answering until it is gone.
         """
-        bridge, process = self.bridge, self.process
+        bridge, process = self.bridge, self.program
         done = threading.Event()
         feeder = None
         if bridge is not None and process is not None and process.poll() is None:
@@ -403,9 +375,151 @@ class ArduPilotNodes(SitlNodes):
                 feeder.join(5.0)
 
 
+class ArduPilotLaunch:
+    """ArduPilot for the firmware launcher (:func:`multicosim.placement.firmware.launch`).
+
+    Claims an instance (its physics port bound) where ArduPilot shares this machine's ports,
+    or instance 0 on a network of its own; starts the JSON bridge in this process; runs
+    ArduPilot (through the guard, on this machine) in a fresh working directory, or its image.
+    """
+
+    waiting_for = "send a servo packet to its simulator"
+
+    def __init__(
+        self,
+        sitl: SITL,
+        vehicle: Vehicle,
+        nodes: ArduPilotNodes,
+        *,
+        period: float,
+        home: Home,
+        params: Mapping[str, float],
+        truth: str,
+        servos: str,
+        uplink: str,
+        downlink: str,
+    ) -> None:
+        self.sitl = sitl
+        self.vehicle = vehicle
+        self.nodes = nodes
+        self.name = nodes.name
+        self.start_timeout = sitl.start_timeout
+        self._period = period
+        self._home = home
+        self._params = params
+        self._topics = {"truth": truth, "servos": servos, "uplink": uplink, "downlink": downlink}
+        self._sockets: list[socket.socket] = []
+        self.instance = 0
+        self.bridge: JsonBridge | None = None
+
+    def claim(self, endpoint: Endpoint) -> int:
+        """Instance 0 on a private network; else the first free instance from the SITL's."""
+        host = endpoint.host
+        if endpoint.private:
+            self.instance, physics = 0, _bind_udp(host, SIM_PORT)
+        else:
+            self.instance, physics = claim_instance(host, first=self.sitl.first_instance)
+        self._sockets.append(physics)
+        listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        self._sockets.append(listener)
+        listener.bind((host, 0))
+        listener.listen(4)
+        return self.instance
+
+    def bridges(self, endpoint: Endpoint) -> list[tuple[str, Component[Any, Node]]]:
+        """The JSON physics bridge (it also carries ArduPilot's MAVLink link)."""
+        from ..local import InProcessComponent
+
+        physics, listener = self._sockets
+        topics = self._topics
+
+        def json_bridge() -> JsonBridge:
+            self.bridge = JsonBridge(
+                name=self.name,
+                period=self._period,
+                physics=physics,
+                mavlink=listener,
+                truth=topics["truth"],
+                servos=topics["servos"],
+                uplink=topics["uplink"],
+                downlink=topics["downlink"],
+                lockstep_timeout=self.sitl.lockstep_timeout,
+            )
+            self.nodes.bridge = self.bridge
+            return self.bridge
+
+        return [(f"{self.name}.json", InProcessComponent(json_bridge, f"{self.name}.json"))]
+
+    def program(self, endpoint: Endpoint, workdir: Path) -> ProgramSpec:
+        """ArduPilot in ``workdir`` through the guard (a directory), or its image."""
+        assert self.bridge is not None
+        sitl, port = self.sitl, self.bridge.mavlink_port
+        command = None
+        if sitl.directory is not None:
+            overlay = write_overlay(workdir, self._params)
+            args = launch_command(
+                sitl.binary(self.vehicle),
+                [sitl.defaults(self.vehicle), overlay],
+                host=endpoint.host,
+                instance=self.instance,
+                home=self._home,
+                mavlink_port=port,
+            )
+            # Through the guard: ArduPilot does not outlive this process (see _guard.py).
+            command = [sys.executable, "-I", str(GUARD), *args]
+        image_command = container_command(
+            vehicle=self.vehicle,
+            sim_host=endpoint.host,
+            mavlink_port=port,
+            home=self._home,
+            params=self._params,
+        )
+        return ProgramSpec(
+            name=self.name,
+            command=command,
+            cwd=str(workdir),
+            image=image_of(sitl),
+            image_command=image_command,
+            image_workdir=CONTAINER_WORKDIR,
+        )
+
+    def started(self, program: ProgramNode, endpoint: Endpoint) -> None:
+        """Watch ArduPilot; on a shared machine, take traffic only from its own sockets."""
+        assert self.bridge is not None
+        self.bridge.watch = program
+        if not endpoint.private and program.pid is not None:
+            self.bridge.peer_check = _owned_by(program.pid)
+
+    def ready(self) -> bool:
+        """Whether ArduPilot has sent its first servo packet."""
+        return self.bridge is not None and self.bridge.poll_started()
+
+    def release(self) -> None:
+        """Close the claimed sockets unless the bridge took them."""
+        if self.bridge is None:
+            for sock in self._sockets:
+                sock.close()
+
+
+def image_of(sitl: SITL) -> str | Callable[[], str] | None:
+    """The ArduPilot image a container runs: the SITL's, or one built from its directory
+    (on first use; a build whose inputs did not change is skipped)."""
+    if sitl.image is not None or sitl.directory is None:
+        return sitl.image
+    directory = sitl.path
+
+    def build() -> str:
+        from .image import build_image
+
+        return build_image(directory)
+
+    return build
+
+
 def start_ardupilot(
     sitl: SITL,
     vehicle: Vehicle,
+    placement: Placement,
     environment: LocalEnvironment,
     *,
     name: str,
@@ -417,85 +531,26 @@ def start_ardupilot(
     uplink: str,
     downlink: str,
 ) -> ArduPilotNodes:
-    """Start ArduPilot (a process, or a container in a ContainerSimulator) with its bridge.
+    """Start ArduPilot where ``placement`` runs programs, with its bridge in this process.
 
     Returns once ArduPilot has sent its first servo packet; it then waits, in lockstep, for
     the simulation's clock. Every part started is stopped again if a later one fails.
     """
-    from ..local import InProcessComponent, ProcessComponent
-
-    group = ArduPilotNodes(name)
-    container = is_container_environment(environment)
-    with group.starting():
-        if container:
-            # Each simulation has a network of its own: ArduPilot is instance 0 in its
-            # container and reaches the bridge on the network's gateway.
-            host = environment.gateway  # type: ignore[attr-defined]
-            instance, physics = 0, _bind_udp(host, SIM_PORT)
-        else:
-            host = "127.0.0.1"
-            instance, physics = claim_instance(host, first=sitl.first_instance)
-        listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-        try:
-            listener.bind((host, 0))
-            listener.listen(4)
-        except BaseException:
-            listener.close()
-            physics.close()
-            raise
-        bridge_node = InProcessComponent(
-            lambda: JsonBridge(
-                name=name,
-                period=period,
-                physics=physics,
-                mavlink=listener,
-                truth=truth,
-                servos=servos,
-                uplink=uplink,
-                downlink=downlink,
-                lockstep_timeout=sitl.lockstep_timeout,
-            ),
-            f"{name}.json",
-        ).start(environment)
-        group.add(f"{name}.json", bridge_node)
-        bridge = bridge_node.participant
-        group.bridge = bridge
-        process: Any
-        if container:
-            process = _start_container(
-                sitl,
-                environment,
-                name=name,
-                vehicle=vehicle,
-                mavlink_port=bridge.mavlink_port,
-                home=home,
-                params=params,
-            )
-        else:
-            workdir = environment.run_dir / f"{name}-ardupilot"
-            overlay = write_overlay(workdir, params)
-            group.rootfs = workdir
-            command = launch_command(
-                sitl.binary(vehicle),
-                [sitl.defaults(vehicle), overlay],
-                host=host,
-                instance=instance,
-                home=home,
-                mavlink_port=bridge.mavlink_port,
-            )
-            # Through the guard: ArduPilot does not outlive this process (see _guard.py).
-            guarded = [sys.executable, "-I", str(GUARD), *command]
-            process = ProcessComponent(
-                guarded, name=name, cwd=str(workdir), ready="started", stop_timeout=10.0
-            ).start(environment)
-            bridge.peer_check = _owned_by(process.pid)
-        group.add(name, process)
-        group.process = process
-        group.instance = instance
-        bridge.watch = process
-        wait_started(bridge, process, name, sitl.start_timeout)
-        log.info("%s: ArduPilot instance %d is stepping its physics", name, instance)
-    return group
+    nodes = ArduPilotNodes(name)
+    ardupilot = ArduPilotLaunch(
+        sitl,
+        vehicle,
+        nodes,
+        period=period,
+        home=home,
+        params=params,
+        truth=truth,
+        servos=servos,
+        uplink=uplink,
+        downlink=downlink,
+    )
+    launch(ardupilot, placement, environment, nodes)
+    return nodes
 
 
 def _owned_by(pid: int) -> PeerCheck:
@@ -517,24 +572,3 @@ def _bind_udp(host: str, port: int) -> socket.socket:
             "ardupilot", f"could not bind {host}:{port} for ArduPilot's physics: {exc}"
         ) from exc
     return sock
-
-
-def _start_container(
-    sitl: SITL,
-    environment: Any,
-    *,
-    name: str,
-    vehicle: Vehicle,
-    mavlink_port: int,
-    home: Home,
-    params: Mapping[str, float],
-) -> Node:
-    assert sitl.image is not None
-    command = container_command(
-        vehicle=vehicle,
-        sim_host=environment.gateway,
-        mavlink_port=mavlink_port,
-        home=home,
-        params=params,
-    )
-    return run_container(environment, sitl.image, command, name)

@@ -6,8 +6,8 @@ firmware reads). Added between world and firmware, it steps in the same instant 
 (the scheduler steps components in add order), so it adds no delay of its own and an
 injector whose models are all zero leaves the run bit-for-bit unchanged.
 
-The same program runs in-process, as a process
-(``python -m multicosim participant multicosim.attacks:injector --config JSON``) or in a
+The same program runs wherever it is placed: in-process, as a process
+(``python -m multicosim participant multicosim.attacks:injector --config JSON``), in a
 container of the runtime image.
 """
 
@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import sys
 from collections import deque
 from typing import TYPE_CHECKING, Any
 
@@ -23,9 +22,10 @@ import msgspec
 
 from ..core.clock import NS
 from ..core.errors import ConfigurationError
-from ..core.interfaces import Node
-from ..local import InProcessComponent, LocalEnvironment, ProcessComponent, participant_command
+from ..core.interfaces import Component, Node
+from ..local import LocalEnvironment, participant_command, required_images
 from ..mavlink.hil import Wire
+from ..placement import ParticipantProgram, Placement, as_placement
 from ..trace import ATTACK_CHANNEL
 from .models import (
     Additive,
@@ -176,10 +176,10 @@ class SensorInjector:
             for model in self.config.models:
                 if not is_zero(model):
                     ctx.publish(ATTACK_CHANNEL, AttackWindow.of(self.config.sensor, model))
-        if sub._deliveries:
+        if sub.fresh:
             # Each reading is judged at the time it was published, not at this step.
-            for delivery, payload in zip(sub._deliveries, sub.messages, strict=True):
-                self._receive(delivery.time_ns, payload, ctx)
+            for stamp, payload in zip(sub.stamps_ns, sub.messages, strict=True):
+                self._receive(stamp, payload, ctx)
         held = self._held
         while held and held[0][0] <= ctx.time_ns:
             ctx.publish(self.config.target, held.popleft()[1])
@@ -220,43 +220,34 @@ def injector(config: InjectorConfig) -> SensorInjector:
 
 @dataclasses.dataclass(frozen=True)
 class InjectorComponent:
-    """The injector as a component: in-process, a local process, or a container.
-
-    ``process`` runs it as a local process (the medium fidelity way) instead of in the
-    simulation's process; ``container()`` gives the same program as a container component
-    for the Docker backend.
+    """The injector as a component, run where ``placement`` says: this process (default),
+    a local process (``"process"``), a container (``"docker"``) or any registered placement.
     """
 
     config: InjectorConfig
     name: str = "injector"
-    process: bool = False
+    placement: str | Placement = "in-process"
 
     def __post_init__(self) -> None:
         if not isinstance(self.config, InjectorConfig):
             raise ConfigurationError("config", self.config, "a multicosim.attacks.InjectorConfig")
         if not isinstance(self.name, str) or not self.name:
             raise ConfigurationError("name", self.name, "a non-empty component name")
+        as_placement(self.placement)
 
     @property
     def command(self) -> list[str]:
         """The injector program's command line (after ``python -m``)."""
         return participant_command(PROGRAM, self.config)
 
-    def container(self, image: str | None = None) -> Any:
-        """The injector as a ``multicosim.docker.ContainerComponent`` of the same program.
+    def _placed(self) -> Component[Any, Node]:
+        program = ParticipantProgram(PROGRAM, self.config, self.name)
+        return as_placement(self.placement).participant(program)
 
-        ``image`` defaults to the runtime image; attach it to the world's network stack
-        with ``AttachedComponent`` where a scenario wants the paper's layout.
-        """
-        from ..docker import RUNTIME_IMAGE, ContainerComponent
-
-        return ContainerComponent(image or RUNTIME_IMAGE, self.command, name=self.name)
+    def required_images(self) -> tuple[str, ...]:
+        """The images its placement needs (checked before a run that runs containers starts)."""
+        return tuple(required_images(self._placed()))
 
     def start(self, environment: LocalEnvironment) -> Node:
-        """Start the injector in this process, or as a local process (``process``)."""
-        if self.process:
-            return ProcessComponent([sys.executable, "-m", *self.command], name=self.name).start(
-                environment
-            )
-        config = self.config
-        return InProcessComponent(lambda: SensorInjector(config), self.name).start(environment)
+        """Start the injector where it is placed."""
+        return self._placed().start(environment)

@@ -19,6 +19,7 @@ from collections.abc import Sequence
 from typing import Any, Protocol, runtime_checkable
 
 from ..core.errors import ConfigurationError, MulticosimError
+from ..placement import Placement
 from ._injector import InjectorComponent, InjectorConfig
 from .models import Model
 
@@ -60,15 +61,14 @@ def inject(
 
 
 def add_injector(
-    simulator: Any, config: InjectorConfig, *, name: str, in_process: bool, backend: str
+    simulator: Any, config: InjectorConfig, *, name: str, placement: str | Placement
 ) -> InjectorComponent:
-    """Add an injector for ``config`` to ``simulator``: in its process, as a local process,
-    or as a container on the docker backend. The scenario moves its topics afterwards, so a
-    failure here leaves it unchanged."""
-    component = InjectorComponent(config, name=name, process=not in_process)
-    added = component.container() if backend == "docker" else component
+    """Add an injector for ``config`` to ``simulator``, run where ``placement`` says (the
+    scenario's world's). The scenario moves its topics afterwards, so a failure here leaves
+    it unchanged."""
+    component = InjectorComponent(config, name=name, placement=placement)
     try:
-        simulator.add(added)
+        simulator.add(component)
     except MulticosimError as exc:
         exc.add_note("add injectors before start(): use the *_simulator fixture, not *_simulation")
         raise

@@ -81,13 +81,17 @@ def _images_build(args: argparse.Namespace) -> int:
 
         for path in args.fmu:
             describe(path)
-    tags = build_images(
-        base=args.base,
-        force=args.force,
-        progress=print if args.verbose else None,
-        px4_dir=args.px4_dir,
-        ardupilot_dir=args.ardupilot_dir,
-    )
+    progress = print if args.verbose else None
+    tags = build_images(base=args.base, force=args.force, progress=progress)
+    # Each vehicle builds its own firmware image, on the runtime image.
+    if args.px4_dir is not None:
+        from ..px4.image import build_image as build_px4
+
+        tags.append(build_px4(args.px4_dir, force=args.force, progress=progress))
+    if args.ardupilot_dir is not None:
+        from ..ardupilot.image import build_image as build_ardupilot
+
+        tags.append(build_ardupilot(args.ardupilot_dir, force=args.force, progress=progress))
     if args.fmu:
         from ..fmi import build_image
 

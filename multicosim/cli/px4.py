@@ -204,7 +204,8 @@ def _plan(args: argparse.Namespace) -> int:
         )
     simulator = px4.PX4(
         fidelity=args.fidelity,
-        backend="docker" if firmware is not None and firmware.binary is None else "process",
+        # Only an image: PX4 runs in a container of it.
+        placement="docker" if firmware is not None and firmware.binary is None else None,
         seed=args.seed,
         realtime=args.speed,
         params=_params(args),

@@ -17,14 +17,23 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Callable, Iterable
-from typing import Any, Protocol, TypeVar
+from typing import Any, Protocol, TypeVar, runtime_checkable
 
 import msgspec
 
 from .errors import ConfigurationError, MulticosimError
 from .messages import decode, encode
 
-__all__ = ["Delivery", "Link", "Member", "Scheduler", "StepResult", "find_scheduler", "to_ns"]
+__all__ = [
+    "Clocked",
+    "Delivery",
+    "Link",
+    "Member",
+    "Scheduler",
+    "StepResult",
+    "find_scheduler",
+    "to_ns",
+]
 
 T = TypeVar("T")
 NS = 1_000_000_000
@@ -315,25 +324,26 @@ class _Hold:
         self._scheduler._holds -= 1
 
 
+@runtime_checkable
+class Clocked(Protocol):
+    """A simulation on a simulated clock (a local or container simulation, a scenario's):
+    ``scheduler`` is the clock its components step on, which traces and checks tap."""
+
+    @property
+    def scheduler(self) -> Scheduler:
+        """The simulated clock."""
+        ...
+
+
 def find_scheduler(simulation: object) -> Scheduler:
-    """The scheduler of ``simulation`` (a local or container simulation, or a wrapper of one)."""
-    seen: set[int] = set()
-    node: object = simulation
-    while id(node) not in seen:
-        seen.add(id(node))
-        if isinstance(node, Scheduler):
-            return node
-        environment = getattr(node, "environment", None)
-        scheduler = getattr(environment, "scheduler", None) or getattr(node, "scheduler", None)
-        if isinstance(scheduler, Scheduler):
-            return scheduler
-        inner = getattr(node, "simulation", None)  # scenario wrappers (RoverSimulation, ...)
-        if inner is None:
-            break
-        node = inner
+    """The scheduler of ``simulation``: a Scheduler itself, or a :class:`Clocked` simulation's."""
+    if isinstance(simulation, Scheduler):
+        return simulation
+    if isinstance(simulation, Clocked):
+        return simulation.scheduler
     raise ConfigurationError(
         "simulation",
         simulation,
-        "a simulation with a simulated clock (ProcessSimulation, ContainerSimulation, "
-        "or an object whose .simulation is one)",
+        "a simulation with a simulated clock (ProcessSimulation, ContainerSimulation, a "
+        "scenario's simulation, or anything with a .scheduler)",
     )

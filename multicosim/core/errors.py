@@ -8,7 +8,8 @@ anything the harness raises on its own account::
     │   ├── MessageTypeError      a message of the wrong type for a node or topic
     │   └── FormulaError          an STL formula that does not parse (names line and column)
     ├── DependencyMissingError    an optional dependency is not installed (names the extra)
-    ├── EngineUnavailableError    the Docker engine cannot be reached
+    ├── PlacementUnavailableError a placement cannot run here (no engine, no cluster)
+    │   └── EngineUnavailableError  the Docker engine cannot be reached
     ├── NodeError                 a running component misbehaved (carries name, exit code, log)
     │   ├── NodeStartError        it did not become ready
     │   │   └── ImageMissingError   its image is not present locally (never pulled)
@@ -53,6 +54,7 @@ __all__ = [
     "NodeStartError",
     "NodeTimeoutError",
     "PhysicsDivergedError",
+    "PlacementUnavailableError",
     "RemoteError",
     "SimulationStopped",
     "TraceError",
@@ -123,7 +125,17 @@ class DependencyMissingError(MulticosimError, ImportError):
         )
 
 
-class EngineUnavailableError(MulticosimError):
+class PlacementUnavailableError(MulticosimError):
+    """A placement cannot run components here: what it needs (a Docker engine, a Ray
+    cluster, an image) is missing. The message says what in one line; ``detail`` says why
+    and how to get it, where known."""
+
+    def __init__(self, message: str, detail: str = "") -> None:
+        super().__init__(message)
+        self.detail = detail
+
+
+class EngineUnavailableError(PlacementUnavailableError):
     """The Docker engine cannot be reached (not installed, not running or no permission)."""
 
 

@@ -1,5 +1,5 @@
-"""What a run is: its fidelity level and its backend, the one list of each that every
-scenario, search and option accepts."""
+"""What a run's models are: its fidelity level, the one list of levels that every scenario,
+search and option accepts (where components run is a placement: :mod:`multicosim.placement`)."""
 
 from __future__ import annotations
 
@@ -8,10 +8,8 @@ from typing import Literal, TypeGuard
 from .errors import ConfigurationError
 
 __all__ = [
-    "BACKENDS",
     "FIDELITIES",
     "FIRMWARE_FIDELITIES",
-    "Backend",
     "Fidelity",
     "FirmwareFidelity",
     "check_fidelity",
@@ -25,11 +23,6 @@ FIDELITIES: tuple[Fidelity, ...] = ("low", "medium", "high")
 FirmwareFidelity = Literal["medium", "high"]
 # Real firmware (PX4, ArduPilot SITL) flies the MuJoCo world: it has no low fidelity.
 FIRMWARE_FIDELITIES: tuple[FirmwareFidelity, ...] = ("medium", "high")
-
-
-Backend = Literal["process", "docker"]
-# Where components run: in this process and local processes, or in Docker containers.
-BACKENDS: tuple[Backend, ...] = ("process", "docker")
 
 
 def is_fidelity(value: object) -> TypeGuard[Fidelity]:

@@ -14,10 +14,13 @@ from .errors import ConfigurationError
 __all__ = [
     "CommunicationNode",
     "Component",
+    "Composite",
     "Node",
     "NodeId",
+    "RunsImages",
     "Simulation",
     "Simulator",
+    "StartsSeveral",
 ]
 
 MsgT_contra = TypeVar("MsgT_contra", contravariant=True)
@@ -38,6 +41,16 @@ class Node(Protocol):
 
 
 @runtime_checkable
+class Composite(Node, Protocol):
+    """A node made of other nodes (a firmware with its bridges, an attached container
+    stack): a simulation finds every node of its run through ``parts``."""
+
+    def parts(self) -> list[Node]:
+        """The nodes it is made of, in start order."""
+        ...
+
+
+@runtime_checkable
 class CommunicationNode(Node, Protocol[MsgT_contra, ReplyT_co]):
     """A node that can be talked to while it runs."""
 
@@ -51,6 +64,26 @@ class Component(Protocol[EnvT_contra, NodeT_co]):
 
     def start(self, environment: EnvT_contra) -> NodeT_co:
         """Start the element in ``environment`` and return the node that manages it."""
+        ...
+
+
+@runtime_checkable
+class RunsImages(Protocol):
+    """A component that runs containers: its images are checked before anything starts, and
+    only a simulator that runs containers takes it."""
+
+    def required_images(self) -> tuple[str, ...]:
+        """The images it needs locally (empty where it runs none)."""
+        ...
+
+
+@runtime_checkable
+class StartsSeveral(Protocol):
+    """A component that starts several named nodes (an attached container stack): each
+    name is taken in its simulation as the component's own is."""
+
+    def node_names(self) -> list[str]:
+        """The names of the nodes it starts."""
         ...
 
 

@@ -27,20 +27,16 @@ _LAZY = {
     "ImageMissingError": "..core.errors",
     "BASE_IMAGE": "._images",
     "RUNTIME_IMAGE": "._images",
-    "PX4_IMAGE": "._images",
-    "ARDUPILOT_IMAGE": "._images",
-    "build_px4": "._images",
     "build_derived": "._images",
-    "build_ardupilot": "._images",
+    "build_from_directory": "._images",
     "build_images": "._images:build",
+    "Docker": ".placement",
     "SweepReport": "._sweep",
     "engine_available": "._sweep",
     "sweep": "._sweep",
 }
 __all__ = [
-    "ARDUPILOT_IMAGE",
     "BASE_IMAGE",
-    "PX4_IMAGE",
     "RUNTIME_IMAGE",
     "AttachedComponent",
     "AttachedNode",
@@ -52,14 +48,14 @@ __all__ = [
     "ContainerNode",
     "ContainerSimulation",
     "ContainerSimulator",
+    "Docker",
     "EngineUnavailableError",
     "FirmwareComponent",
     "ImageMissingError",
     "SweepReport",
-    "build_ardupilot",
     "build_derived",
+    "build_from_directory",
     "build_images",
-    "build_px4",
     "engine_available",
     "sweep",
 ]
@@ -73,14 +69,11 @@ if TYPE_CHECKING:
     from ._firmware import ContainerFirmwareComponent as ContainerFirmwareComponent
     from ._firmware import ContainerFirmwareComponent as FirmwareComponent
     from ._firmware import ContainerFirmwareNode as ContainerFirmwareNode
-    from ._images import ARDUPILOT_IMAGE as ARDUPILOT_IMAGE
     from ._images import BASE_IMAGE as BASE_IMAGE
-    from ._images import PX4_IMAGE as PX4_IMAGE
     from ._images import RUNTIME_IMAGE as RUNTIME_IMAGE
     from ._images import build as build_images
-    from ._images import build_ardupilot as build_ardupilot
     from ._images import build_derived as build_derived
-    from ._images import build_px4 as build_px4
+    from ._images import build_from_directory as build_from_directory
     from ._limits import ContainerLimits as ContainerLimits
     from ._simulator import ContainerSimulation as ContainerSimulation
     from ._simulator import ContainerSimulator as ContainerSimulator
@@ -89,6 +82,7 @@ if TYPE_CHECKING:
     from ._sweep import sweep as sweep
     from .environment import ContainerEnvironment as ContainerEnvironment
     from .node import ContainerNode as ContainerNode
+    from .placement import Docker as Docker
 
 
 __getattr__, __dir__ = lazy_exports(__name__, _LAZY, __all__)

@@ -9,7 +9,7 @@ from typing import Generic, Protocol, TypeVar
 from ..core.errors import ConfigurationError
 from ..core.interfaces import Node
 from ._component import ContainerComponent
-from ._firmware import ContainerFirmwareComponent
+from ._firmware import ContainerFirmwareComponent, ContainerFirmwareNode
 from .environment import ContainerEnvironment
 from .node import ContainerNode
 
@@ -38,6 +38,10 @@ class AttachedNode(Generic[HostT]):
         self.name = name
         self._stopped = False
 
+    def parts(self) -> list[Node]:
+        """The host's node, then the attached containers."""
+        return [self.host, *self.attached]
+
     def stop(self) -> None:
         """Stop the attached containers (newest first), then the host."""
         if self._stopped:
@@ -50,9 +54,10 @@ class AttachedNode(Generic[HostT]):
 
 
 def _container_of(node: Node) -> ContainerNode:
-    container = node if isinstance(node, ContainerNode) else getattr(node, "container", None)
-    assert isinstance(container, ContainerNode)
-    return container
+    if isinstance(node, ContainerFirmwareNode):
+        return node.container
+    assert isinstance(node, ContainerNode)
+    return node
 
 
 @dataclasses.dataclass(frozen=True)

@@ -12,6 +12,7 @@ from collections.abc import Mapping, Sequence
 from typing import Generic
 
 from ..core.errors import ConfigurationError, NodeStartError, NodeTimeoutError
+from ..core.interfaces import Node
 from ..core.messages import MsgT, ReplyT
 from ..local.firmware import ProcessFirmwareNode, check_types
 from ..local.processes import split_command
@@ -58,6 +59,10 @@ class ContainerFirmwareNode(ProcessFirmwareNode[MsgT, ReplyT]):
         )
         self.container = container
         self.host_port = host_port
+
+    def parts(self) -> list[Node]:
+        """Its container."""
+        return [self.container]
 
 
 @dataclasses.dataclass(frozen=True)

@@ -24,18 +24,14 @@ from typing import Any
 
 from ..core.errors import MulticosimError
 from ..core.version import __version__
-from .engine import ImageNotFound, client
 
 __all__ = [
-    "ARDUPILOT_IMAGE",
     "BASE_IMAGE",
-    "PX4_IMAGE",
     "RUNTIME_IMAGE",
     "build",
-    "build_ardupilot",
     "build_base",
     "build_derived",
-    "build_px4",
+    "build_from_directory",
     "build_runtime",
     "debian_mirror",
 ]
@@ -44,12 +40,6 @@ log = logging.getLogger(__name__)
 
 RUNTIME_IMAGE = f"multicosim/runtime:{__version__}"
 """The image every multicosim component program runs from."""
-
-PX4_IMAGE = f"multicosim/px4-sitl:{__version__}"
-"""The real-PX4 image: the runtime image with a PX4 SITL directory (``build_px4``)."""
-
-ARDUPILOT_IMAGE = f"multicosim/ardupilot-sitl:{__version__}"
-"""The ArduPilot image: the runtime image with an ArduPilot SITL directory (``build_ardupilot``)."""
 
 BASE_IMAGE = "multicosim/base:bookworm"
 """The base image made from Debian's archive when no Python base image is present."""
@@ -100,6 +90,8 @@ def debian_mirror(sources: Path = Path("/etc/apt/sources.list.d/debian.sources")
 
 
 def _image_exists(api: Any, name: str) -> bool:
+    from .engine import ImageNotFound
+
     try:
         api.inspect_image(name)
     except ImageNotFound:
@@ -120,6 +112,8 @@ def build_base(tag: str = BASE_IMAGE, *, mirror: str | None = None) -> str:
     if os.geteuid() != 0:
         raise MulticosimError("debootstrap needs root to build the base image")
     mirror = mirror or debian_mirror()
+    from .engine import client
+
     api = client().api
     rootfs = Path(tempfile.mkdtemp(prefix="mcs-rootfs-"))
     try:
@@ -245,6 +239,8 @@ def _build_context(
     progress: Callable[[str], None] | None,
 ) -> str:
     """Build ``context`` on ``base`` as ``tag`` unless an image of the same inputs exists."""
+    from .engine import client
+
     api = client().api
     if not _image_exists(api, base):
         raise MulticosimError(f"base image {base!r} is not present locally (never pulled)")
@@ -278,58 +274,7 @@ def _build_context(
     return tag
 
 
-def build_px4(
-    px4_dir: str | os.PathLike[str],
-    *,
-    tag: str = PX4_IMAGE,
-    force: bool = False,
-    progress: Callable[[str], None] | None = None,
-) -> str:
-    """Build the real-PX4 image from a PX4 SITL directory (``bin/px4`` and ``etc``); its tag.
-
-    The image is the runtime image (``multicosim px4 launch`` prepares PX4's working
-    directory inside it) with the directory's ``bin`` and ``etc`` copied to /opt/px4; no
-    registry is contacted. Skipped when its inputs did not change, unless ``force``.
-    """
-    return _build_firmware(
-        "px4",
-        px4_dir,
-        required=("bin/px4", "etc/init.d-posix/rcS"),
-        parts=("bin", "etc"),
-        what="a PX4 SITL directory (a px4_sitl_default build or bundle with bin/px4 and etc/)",
-        tag=tag,
-        force=force,
-        progress=progress,
-    )
-
-
-def build_ardupilot(
-    ardupilot_dir: str | os.PathLike[str],
-    *,
-    tag: str = ARDUPILOT_IMAGE,
-    force: bool = False,
-    progress: Callable[[str], None] | None = None,
-) -> str:
-    """Build the ArduPilot image from an ArduPilot SITL directory; its tag.
-
-    The directory holds ``bin/arducopter``, ``bin/ardurover`` and ``params/`` (ArduPilot's
-    default parameter files); the image is the runtime image (``multicosim ardupilot
-    launch`` writes the run's parameters and starts ArduPilot) with them in /opt/ardupilot.
-    No registry is contacted. Skipped when its inputs did not change, unless ``force``.
-    """
-    return _build_firmware(
-        "ardupilot",
-        ardupilot_dir,
-        required=("bin/arducopter", "bin/ardurover", "params/copter.parm", "params/rover.parm"),
-        parts=("bin", "params"),
-        what="an ArduPilot SITL directory (bin/arducopter, bin/ardurover, params/)",
-        tag=tag,
-        force=force,
-        progress=progress,
-    )
-
-
-def _build_firmware(
+def build_from_directory(
     name: str,
     directory: str | os.PathLike[str],
     *,
@@ -337,10 +282,15 @@ def _build_firmware(
     parts: tuple[str, ...],
     what: str,
     tag: str,
-    force: bool,
-    progress: Callable[[str], None] | None,
+    force: bool = False,
+    progress: Callable[[str], None] | None = None,
 ) -> str:
-    """Build ``images/<name>`` on the runtime image with ``parts`` of ``directory``."""
+    """Build ``images/<name>`` on the runtime image with ``parts`` of ``directory``.
+
+    For a firmware build (a SITL directory): ``required`` files must be in it (else the
+    error says it is not ``what``); its licence file goes in too. The vehicle packages
+    build their images with it (``multicosim.px4.image``, ``multicosim.ardupilot.image``).
+    """
     root = Path(directory)
     missing = [p for p in required if not (root / p).is_file()]
     if missing:
@@ -388,26 +338,20 @@ def build(
     base: str | None = None,
     force: bool = False,
     progress: Callable[[str], None] | None = None,
-    px4_dir: str | os.PathLike[str] | None = None,
-    ardupilot_dir: str | os.PathLike[str] | None = None,
 ) -> list[str]:
-    """Build every multicosim image locally; return their tags.
+    """Build multicosim's runtime image locally (and its base if missing); return its tag.
 
     ``base``: the base image to build on (default: python:3.11-slim if present locally, else
-    multicosim's Debian base, made with debootstrap if missing). ``px4_dir``: also build the
-    real-PX4 image from that PX4 SITL directory (``build_px4``); ``ardupilot_dir``: also build
-    the ArduPilot image from that ArduPilot SITL directory (``build_ardupilot``).
+    multicosim's Debian base, made with debootstrap if missing). A vehicle's firmware image
+    is built by its package (``multicosim images build --px4-dir DIR``).
     """
+    from .engine import client
+
     api = client().api
     # Parallel test workers (xdist) all ask for the images: build them once, in turn.
     with open(_BUILD_LOCK, "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
-        tags = _build_locked(api, base, force, progress)
-    if px4_dir is not None:
-        tags.append(build_px4(px4_dir, force=force, progress=progress))
-    if ardupilot_dir is not None:
-        tags.append(build_ardupilot(ardupilot_dir, force=force, progress=progress))
-    return tags
+        return _build_locked(api, base, force, progress)
 
 
 def _build_locked(

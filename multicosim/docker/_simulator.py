@@ -8,7 +8,7 @@ from typing import Any, TypeVar
 
 from ..core.clock import Scheduler
 from ..core.errors import MulticosimError
-from ..core.interfaces import Node
+from ..core.interfaces import Composite, Node
 from ..local.rundirs import remove_tree
 from ..local.simulators import LocalSimulatorBase, ProcessSimulation, required_images
 from .engine import LABEL_RUN, APIError, NotFound, client, labels, require_image
@@ -67,6 +67,8 @@ class ContainerSimulator(LocalSimulatorBase[ContainerEnvironment]):
     ``run_dir`` keeps each container's output there (NAME.log) after the run.
     """
 
+    runs_images = True
+
     def start(self) -> ContainerSimulation:
         """Create the network, start every component in add order; on failure undo it all."""
         docker_client = client()
@@ -105,25 +107,20 @@ class ContainerSimulator(LocalSimulatorBase[ContainerEnvironment]):
             raise
         simulation = ContainerSimulation(self._token, environment, self.run_dir is not None)
         # Cleanups run last-registered first: sockets close before the network goes.
-        simulation._add_cleanup("the network", lambda: _remove_network(api, run_id))
-        simulation._add_cleanup("the clock and sockets", simulation._finish)
+        simulation.add_cleanup("the network", lambda: _remove_network(api, run_id))
+        simulation.add_cleanup("the clock and sockets", simulation.release)
         self._start_components(simulation, environment)
         return simulation
 
 
 def _collect(node: object, found: list[ContainerNode]) -> None:
-    # A node is a container, wraps one (a firmware node), or groups some (an attached stack).
+    # A node is a container, or is made of nodes (a firmware node, an attached stack, real
+    # firmware with its bridges) some of which are containers.
     if isinstance(node, ContainerNode):
         found.append(node)
-        return
-    container = getattr(node, "container", None)
-    if isinstance(container, ContainerNode):
-        found.append(container)
-    host = getattr(node, "host", None)
-    if host is not None:
-        _collect(host, found)
-    for member in getattr(node, "attached", ()):
-        _collect(member, found)
+    elif isinstance(node, Composite):
+        for part in node.parts():
+            _collect(part, found)
 
 
 def _remove_network(api: Any, run_id: str) -> None:

@@ -59,6 +59,31 @@ class ContainerNode:
         self._checked = 0.0
         self.memory: int | None = None
         """Its memory limit in bytes, where known (for the error when it runs out)."""
+        self.workdir = "/"
+        """Its working directory in the container (where ``files`` looks)."""
+
+    @property
+    def pid(self) -> int | None:
+        """Its init process's id on this machine (None where the engine is not local)."""
+        return self._pid_stat[0] if self._pid_stat is not None else None
+
+    def files(self, path: str, suffix: str, into: Path) -> list[Path]:
+        """Its files ending in ``suffix`` under ``path`` (relative to its working directory),
+        copied out of the container into ``into``; none where there are none (yet)."""
+        import io
+        import posixpath
+        import tarfile
+
+        try:
+            stream, _ = self.container.get_archive(posixpath.join(self.workdir, path))
+        except (NotFound, APIError):  # no such directory yet, or the container is gone
+            return []
+        data = io.BytesIO(b"".join(stream))
+        into.mkdir(parents=True, exist_ok=True)
+        with tarfile.open(fileobj=data) as tar:
+            members = [m for m in tar.getmembers() if m.isfile() and m.name.endswith(suffix)]
+            tar.extractall(into, members=members, filter="data")
+        return sorted(into.glob(f"**/*{suffix}"))
 
     def _watch_pid(self, pid: int) -> None:
         # Waits check liveness every 100 ms; an engine API call for each would cost more than

@@ -26,7 +26,7 @@ its node), :mod:`.build` (a binary from the sources, the container image), :mod:
 from __future__ import annotations
 
 from .build import build_image
-from .component import FMU, WHERE, FMUNode, Where
+from .component import FMU, FMUNode
 from .config import SOLVERS, FMUConfig, Solver
 from .errors import FMUError
 from .messages import LogLine
@@ -39,7 +39,6 @@ __all__ = [
     "INTERFACES",
     "PROGRAM",
     "SOLVERS",
-    "WHERE",
     "FMUConfig",
     "FMUError",
     "FMUNode",
@@ -49,7 +48,6 @@ __all__ = [
     "Model",
     "Solver",
     "Variable",
-    "Where",
     "build_image",
     "default_step",
     "describe",

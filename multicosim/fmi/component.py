@@ -1,25 +1,26 @@
 """An FMU as a component: :class:`FMU` (the configuration, checked on construction) and the
-:class:`FMUNode` it starts, in-process, as a local process or in a container."""
+:class:`FMUNode` it starts where its placement runs it (this process, a local process, a
+container, ...)."""
 
 from __future__ import annotations
 
 import dataclasses
 import os
 import re
-import sys
 import weakref
 from collections.abc import Iterable, Mapping, Sequence
-from typing import TYPE_CHECKING, Any, Literal
+from typing import TYPE_CHECKING, Any
 
 import msgspec
 import numpy as np
 
 from ..core.clock import Delivery, Scheduler
 from ..core.errors import ConfigurationError, MulticosimError
-from ..core.interfaces import Node
+from ..core.interfaces import Component, Node
 from ..core.messages import decode
-from ..local import InProcessComponent, LocalEnvironment, ProcessComponent, participant_command
+from ..local import LocalEnvironment, required_images
 from ..local.waits import DEFAULT_START_TIMEOUT, check_timeout
+from ..placement import ParticipantProgram, Placement, as_placement
 from .build import IN_IMAGE, build_image, image_entry, no_binary, prepare
 from .config import (
     PARAMETERS,
@@ -39,12 +40,7 @@ from .participant import PROGRAM, FMUParticipant
 if TYPE_CHECKING:
     from ..trace import TraceOptions
 
-__all__ = ["FMU", "WHERE", "FMUNode", "Where", "default_name"]
-
-Where = Literal["in-process", "process", "container"]
-# Where an FMU component runs: in the simulation's process (fastest, but a crash of the
-# FMU's native code ends the process), a local process, or a container of its own image.
-WHERE: tuple[Where, ...] = ("in-process", "process", "container")
+__all__ = ["FMU", "FMUNode", "default_name"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -61,10 +57,10 @@ class FMU:
     variables by name before the run (arrays as nested or flat sequences). ``period`` is
     the communication step (default: the FMU's own, :attr:`Model.default_step`).
 
-    ``where`` it runs: ``"in-process"`` (fastest), ``"process"`` (a crash or abort in the
-    FMU's native code is a NodeCrashedError, not the end of the test process) or
-    ``"container"`` (on a ContainerSimulator; its image, the runtime image with the FMU
-    copied in, is built on start unless ``image`` names one). ``interface`` picks
+    ``placement`` is where it runs: ``"in-process"`` (fastest), ``"process"`` (a crash or
+    abort in the FMU's native code is a NodeCrashedError, not the end of the test process),
+    ``"docker"`` (a container: its image, the runtime image with the FMU copied in, is
+    built on start unless ``image`` names one) or any registered placement. ``interface`` picks
     co-simulation or model exchange (default: co-simulation when the FMU has it); model
     exchange is integrated with FMPy's ``solver`` (``"CVode"`` or ``"Euler"``).
     ``start_time`` is the FMU's time when the simulation starts; ``stop_time`` is told to
@@ -81,7 +77,7 @@ class FMU:
     inputs: Mapping[str, str] = dataclasses.field(default_factory=dict)
     outputs: Mapping[str, str] = dataclasses.field(default_factory=dict)
     record: Sequence[str] = ()
-    where: Where = "in-process"
+    placement: str | Placement = "in-process"
     interface: Interface | None = None
     solver: Solver = "CVode"
     tolerance: float | None = None
@@ -95,8 +91,7 @@ class FMU:
 
     def __post_init__(self) -> None:
         model = describe(self.path)
-        if self.where not in WHERE:
-            raise ConfigurationError("where", self.where, f"one of {WHERE}")
+        as_placement(self.placement)
         if not model.runnable_here and not self.compile:
             raise ConfigurationError("path", str(self.path), no_binary(model))
         if self.compile and not model.runnable_here and not model.has_sources:
@@ -129,10 +124,8 @@ class FMU:
                 raise ConfigurationError(field, mapping, "a mapping of variable name to topic")
         if isinstance(self.record, str) or not isinstance(self.record, Sequence):
             raise ConfigurationError("record", self.record, "a sequence of variable names")
-        if self.image is not None and self.where != "container":
-            raise ConfigurationError(
-                "image", self.image, "None (an image is for where='container')"
-            )
+        if self.image is not None and (not isinstance(self.image, str) or not self.image):
+            raise ConfigurationError("image", self.image, "None or a local image name")
         config = FMUConfig(
             path=str(model.path),
             name=name,
@@ -168,39 +161,55 @@ class FMU:
         return self.plan.config
 
     def replace(self, **changes: Any) -> FMU:
-        """A copy with ``changes`` (checked again), e.g. ``fmu.replace(where="process")``."""
+        """A copy with ``changes`` (checked again), e.g. ``fmu.replace(placement="process")``."""
         return dataclasses.replace(self, **changes)
 
+    def _program(self, build: Any = None) -> ParticipantProgram:
+        plan_ = self.plan
+        return ParticipantProgram(
+            PROGRAM,
+            plan_.config,
+            plan_.config.name,
+            build=build,
+            local_config=lambda environment: self._local_config(environment, plan_),
+            image=self._image,
+            images=(self.image,) if self.image is not None else (),
+            start_timeout=self.start_timeout,
+        )
+
+    def _placed(self) -> Component[Any, Node]:
+        return as_placement(self.placement).participant(self._program())
+
     def required_images(self) -> tuple[str, ...]:
-        """The image it needs locally: one given as ``image`` (otherwise it is built)."""
-        return (self.image,) if self.image is not None else ()
+        """The images its placement needs: ``image`` if given (otherwise one is built)."""
+        return tuple(required_images(self._placed()))
 
     def start(self, environment: LocalEnvironment) -> FMUNode:
-        """Start the FMU where it runs; it steps from the current instant."""
+        """Start the FMU where it is placed; it steps from the current instant."""
         plan_ = self.plan
-        if self.where == "in-process":
-            participant, node = self._start_in_process(environment, plan_)
-            records = participant.history if self.history else None
+        placement = as_placement(self.placement)
+        if placement.in_process:
+            built: list[FMUParticipant] = []
+
+            def build(environment: LocalEnvironment) -> FMUParticipant:
+                built.append(self._participant(environment, plan_))
+                return built[0]
+
+            node = placement.participant(self._program(build)).start(environment)
+            records = built[0].history if self.history else None
             return FMUNode(
-                plan_.config.name, self.where, node, plan_, records, participant.log_lines
+                plan_.config.name, placement.name, node, plan_, records, built[0].log_lines
             )
         # What another process publishes is kept from the scheduler's traffic.
         collector = _collector(environment.scheduler)
         kept = collector.watch(plan_.topic) if self.history else None
         lines = collector.watch(plan_.log_topic)
         try:
-            if self.where == "container":
-                node = self._start_container(environment, plan_)
-            else:
-                config = self._local_config(environment, plan_)
-                command = [sys.executable, "-m", *participant_command(PROGRAM, config)]
-                node = ProcessComponent(
-                    command, name=config.name, start_timeout=self.start_timeout
-                ).start(environment)
+            node = self._placed().start(environment)
         except BaseException:
             collector.forget(plan_.topic, plan_.log_topic)
             raise
-        return FMUNode(plan_.config.name, self.where, node, plan_, kept, lines)
+        return FMUNode(plan_.config.name, placement.name, node, plan_, kept, lines)
 
     def _local_config(self, environment: LocalEnvironment, plan_: Plan) -> FMUConfig:
         """The configuration for this machine: the FMU extracted (and compiled) in the run."""
@@ -211,43 +220,25 @@ class FMU:
             path = str(prepare(plan_.model, workdir))
         return msgspec.structs.replace(config, path=path, workdir=str(workdir))
 
-    def _start_in_process(
-        self, environment: LocalEnvironment, plan_: Plan
-    ) -> tuple[FMUParticipant, Node]:
+    def _participant(self, environment: LocalEnvironment, plan_: Plan) -> FMUParticipant:
+        """The participant in this process: its log kept, and its history if asked."""
         config = msgspec.structs.replace(
             self._local_config(environment, plan_),
             log_file=str(environment.run_dir / f"{plan_.config.name}.log"),
         )
-        participant = FMUParticipant(
+        return FMUParticipant(
             config,
             dataclasses.replace(plan_, config=config),
             keep_log=True,
             keep_history=self.history,
         )
-        node = InProcessComponent(lambda: participant, config.name).start(environment)
-        return participant, node
 
-    def _start_container(self, environment: LocalEnvironment, plan_: Plan) -> Node:
-        try:
-            from ..docker import ContainerComponent, ContainerEnvironment
-        except ImportError as exc:  # the docker extra
-            raise ConfigurationError("where", "container", f"the docker extra: {exc}") from exc
-        if not isinstance(environment, ContainerEnvironment):
-            raise ConfigurationError(
-                "where",
-                "container",
-                "a ContainerSimulator to run in (the docker backend); this simulator runs "
-                "no containers: use where='process' or 'in-process'",
-            )
+    def _image(self) -> tuple[str, FMUConfig]:
+        """The image a container runs it from (built unless given) and its configuration."""
+        plan_ = self.plan
         image = self.image or build_image(plan_.model.path, compile=self.compile)
         inside = f"{IN_IMAGE}/{image_entry(plan_.model)}"
-        config = msgspec.structs.replace(plan_.config, path=inside)
-        return ContainerComponent(
-            image,
-            participant_command(PROGRAM, config),
-            name=config.name,
-            start_timeout=self.start_timeout,
-        ).start(environment)
+        return image, msgspec.structs.replace(plan_.config, path=inside)
 
 
 class FMUNode:
@@ -262,22 +253,23 @@ class FMUNode:
     def __init__(
         self,
         name: str,
-        where: Where,
+        placement: str,
         node: Node,
         plan: Plan,
         records: list[Any] | None,
         lines: list[Any] | None,
     ) -> None:
         self.name = name
-        self.where: Where = where
+        self.placement = placement
+        """The name of the placement it runs in."""
         self.node = node
         self.plan = plan
         self._records = records
         self._lines = lines
-        # A ContainerSimulation finds its containers through this attribute (fast stop).
-        container = node if type(node).__name__ == "ContainerNode" else None
-        if container is not None:
-            self.container = container
+
+    def parts(self) -> list[Node]:
+        """The node that runs it."""
+        return [self.node]
 
     @property
     def model(self) -> Model:
@@ -352,7 +344,7 @@ class FMUNode:
         self.node.stop()
 
     def __repr__(self) -> str:
-        return f"FMUNode({self.name!r}, where={self.where!r}, model={self.model.name!r})"
+        return f"FMUNode({self.name!r}, placement={self.placement!r}, model={self.model.name!r})"
 
 
 def _typed(kept: list[Any], tp: Any, what: str) -> list[Any]:

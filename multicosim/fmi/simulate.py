@@ -8,7 +8,8 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from ..core.errors import ConfigurationError
-from .component import FMU, Where, default_name
+from ..placement import Placement, as_placement
+from .component import FMU, default_name
 from .config import PARAMETERS, Solver
 from .model import Interface, Model, describe
 
@@ -27,7 +28,7 @@ def simulate(
     fmi_type: Interface | None = None,
     solver: Solver = "CVode",
     relative_tolerance: float | None = None,
-    where: Where = "in-process",
+    placement: str | Placement = "in-process",
     simulator: Any = None,
 ) -> Any:
     """Simulate the FMU at ``path`` alone, on multicosim's clock, like fmpy.simulate_fmu.
@@ -38,9 +39,9 @@ def simulate(
     Defaults are FMPy's: the default experiment's start and stop time, and a step of the
     FMU's fixed internal step or its default experiment's step size (doubled until at most
     1000 steps), else FMPy's ``auto_interval``. ``start_values`` (FMPy's name) may hold
-    parameters too; ``parameters`` holds only parameters. ``where`` runs the FMU in-process,
-    as a process or in a container (``simulator`` then must be a ContainerSimulator);
-    ``simulator`` is an unstarted simulator to run in (default: a new ProcessSimulator).
+    parameters too; ``parameters`` holds only parameters. ``placement`` is where the FMU
+    runs (in-process, as a process, in a container, ...); ``simulator`` is an unstarted
+    simulator to run in (default: a new one of that placement).
     """
     model = describe(path)
     start = float(start_time if start_time is not None else (model.start_time or 0.0))
@@ -68,7 +69,7 @@ def simulate(
             for n in names
             if model.variables.get(n) is None or model.variables[n].causality != "output"
         ],
-        where=where,
+        placement=placement,
         interface=interface,
         solver=solver,
         tolerance=relative_tolerance,
@@ -76,9 +77,7 @@ def simulate(
         stop_time=stop,
     )
     if simulator is None:
-        from ..local import ProcessSimulator
-
-        simulator = ProcessSimulator()
+        simulator = as_placement(placement).simulator()
     node_id = simulator.add(fmu)
     points = math.ceil((stop - start) / fmu.config.period - 1e-9)
     with simulator.start() as simulation:

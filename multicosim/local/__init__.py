@@ -9,8 +9,8 @@ The backend lives in modules of one concern each; this module gathers their publ
 * ``waits``: timeouts and crash reports; ``rundirs``: run directories and the sweep;
 * ``coordinator``: the lockstep socket; ``environment``: what components are given;
 * ``processes``: local processes; ``firmware``: firmware nodes over ZeroMQ;
-* ``inprocess``: in-process components; ``simulators``, ``simulation`` and ``scenario``:
-  simulators, the running set, and the base of the scenarios' simulations;
+* ``inprocess``: in-process components; ``simulators`` and ``simulation``: simulators and
+  the running set (the scenarios' base is :mod:`multicosim.placement.scenario`);
 * ``check``: ``check_component``, the conformance check of a component of one's own.
 """
 
@@ -39,7 +39,6 @@ from .processes import (
     split_command,
 )
 from .rundirs import remove_tree, runs_directory, sweep_stale_runs
-from .scenario import ScenarioSimulation
 from .simulators import (
     LocalSimulatorBase,
     ProcessSimulation,
@@ -80,7 +79,6 @@ __all__ = [
     "ProcessNode",
     "ProcessSimulation",
     "ProcessSimulator",
-    "ScenarioSimulation",
     "SelfContainedSimulation",
     "SelfContainedSimulator",
     "ThreadFirmwareComponent",

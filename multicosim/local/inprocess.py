@@ -52,7 +52,7 @@ def _call(
     try:
         return handler(msg, ctx)
     finally:
-        ctx._finish()
+        ctx.end_call()
 
 
 def _interrupted(expired: Expired, what: str = "interrupted") -> str:
@@ -251,7 +251,7 @@ class InProcessComponent(Generic[ParticipantT]):
             next_ns=environment.scheduler.now_ns,
         )
         environment.scheduler.add(member)
-        environment.scheduler.subscribe(member, ctx._take_topics())
+        environment.scheduler.subscribe(member, ctx.take_new_topics())
         return InProcessNode(participant, self.name)
 
     def _build(self, ctx: StepContext) -> ParticipantT:

@@ -256,10 +256,16 @@ class ProcessNode:
     """A component running as a local process."""
 
     def __init__(
-        self, handle: ProcessHandle, stop_timeout: float, environment: LocalEnvironment
+        self,
+        handle: ProcessHandle,
+        stop_timeout: float,
+        environment: LocalEnvironment,
+        cwd: str | None = None,
     ) -> None:
         self.handle = handle
         self.name = handle.name
+        self.cwd = Path(cwd) if cwd is not None else None
+        """Its working directory (None: the one it was started from)."""
         self._stop_timeout = stop_timeout
         self._environment = environment
         self._stopped = False
@@ -273,6 +279,12 @@ class ProcessNode:
     def log_path(self) -> Path:
         """The file holding its stdout and stderr."""
         return self.handle.log_path
+
+    def files(self, path: str, suffix: str, into: Path) -> list[Path]:
+        """Its files ending in ``suffix`` under ``path`` of its working directory (they are
+        on this machine already: ``into`` is not used)."""
+        root = (self.cwd or Path.cwd()) / path
+        return sorted(root.glob(f"**/*{suffix}"))
 
     def poll(self) -> int | None:
         """The exit code once it has exited, else None."""
@@ -352,7 +364,7 @@ def start_process(
     )
     environment.processes[name] = handle
     environment.record_pid(handle.pid)
-    node = ProcessNode(handle, stop_timeout, environment)
+    node = ProcessNode(handle, stop_timeout, environment, cwd)
     environment.coordinator.expect(name, order, handle)
     hello = None
     try:

@@ -67,7 +67,7 @@ class NodeSet:
     def _add_node(self, node_id: NodeId[Any], node: Node) -> None:
         self._nodes.append((node_id, node))
 
-    def _add_cleanup(self, label: str, cleanup: Callable[[], None]) -> None:
+    def add_cleanup(self, label: str, cleanup: Callable[[], None]) -> None:
         """Run ``cleanup`` at stop, after the nodes started before it were registered."""
         self._cleanups.append((label, cleanup))
 

@@ -12,7 +12,14 @@ import msgspec
 
 from ..core.clock import Scheduler
 from ..core.errors import ConfigurationError, MulticosimError
-from ..core.interfaces import Component, Node, NodeId, new_simulator_token
+from ..core.interfaces import (
+    Component,
+    Node,
+    NodeId,
+    RunsImages,
+    StartsSeveral,
+    new_simulator_token,
+)
 from .environment import LocalEnvironment
 from .rundirs import new_run_dir, remove_tree
 from .simulation import NodeSet, started
@@ -55,6 +62,11 @@ class ProcessSimulation(NodeSet):
         return self.environment.seed
 
     @property
+    def scheduler(self) -> Scheduler:
+        """The simulated clock its components step on."""
+        return self.environment.scheduler
+
+    @property
     def run_dir(self) -> Path:
         """Where component logs are written."""
         return self.environment.run_dir
@@ -84,7 +96,9 @@ class ProcessSimulation(NodeSet):
         self.environment.scheduler.closed = True
         super().stop()
 
-    def _finish(self) -> None:
+    def release(self) -> None:
+        """Release the clock and sockets, and remove the run directory unless it is kept
+        (the last cleanup of a stop)."""
         self.environment.close()
         run_dir = self.environment.run_dir
         if not run_dir.exists():
@@ -100,6 +114,9 @@ EnvT = TypeVar("EnvT", bound=LocalEnvironment)
 
 class LocalSimulatorBase(Generic[EnvT]):
     """What the lockstep simulators share: validated settings, ``add``, starting in order."""
+
+    runs_images = False
+    """Whether its environment runs containers (components that need images)."""
 
     def __init__(
         self,
@@ -154,10 +171,15 @@ class LocalSimulatorBase(Generic[EnvT]):
             raise MulticosimError("components cannot be added after start()")
         if not callable(getattr(component, "start", None)):
             raise ConfigurationError("component", component, "an object with start(environment)")
+        if required_images(component) and not self.runs_images:
+            raise ConfigurationError(
+                "component",
+                component,
+                "a component that runs no container (containers run on a simulator of the "
+                "'docker' placement)",
+            )
         name = str(getattr(component, "name", None) or type(component).__name__)
-        # A component may run several nodes (an attached container stack): all names count.
-        names_of = getattr(component, "node_names", None)
-        names = {name, *(names_of() if callable(names_of) else ())}
+        names = {name, *(component.node_names() if isinstance(component, StartsSeveral) else ())}
         for taken in sorted(names & self._names):
             raise ConfigurationError("name", taken, "a name not used by another component")
         self._names.update(names)
@@ -178,6 +200,10 @@ class LocalSimulatorBase(Generic[EnvT]):
                 self._components[i] = (nid, component)
                 return
         raise ConfigurationError("node_id", node_id, "the id of a component added here")
+
+    def start(self) -> ProcessSimulation:
+        """Start every component in add order; on failure stop those started, then raise."""
+        raise NotImplementedError  # each simulator makes its own environment
 
     def _new_run(self) -> tuple[str, Path]:
         """Mark the simulator started; make the run's id and directory."""
@@ -221,7 +247,7 @@ class ProcessSimulator(LocalSimulatorBase[LocalEnvironment]):
             step_timeout=self.step_timeout,
         )
         simulation = ProcessSimulation(self._token, environment, self.run_dir is not None)
-        simulation._add_cleanup("the clock and sockets", simulation._finish)
+        simulation.add_cleanup("the clock and sockets", simulation.release)
         started(simulation)
         self._start_components(simulation, environment)
         return simulation
@@ -299,11 +325,12 @@ def participant_command(factory: str, config: object) -> list[str]:
     """The command line (after ``python -m``) of participant ``factory`` given ``config``.
 
     The same in a process and in the runtime image, which has ``multicosim`` on its path.
+    A factory that takes no configuration gets None (no ``--config``).
     """
-    return ["multicosim", "participant", factory, "--config", config_json(config)]
+    command = ["multicosim", "participant", factory]
+    return command if config is None else [*command, "--config", config_json(config)]
 
 
 def required_images(component: object) -> list[str]:
     """The images ``component`` runs (empty for one that runs no container)."""
-    images = getattr(component, "required_images", None)
-    return list(images()) if callable(images) else []
+    return list(component.required_images()) if isinstance(component, RunsImages) else []

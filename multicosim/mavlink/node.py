@@ -6,8 +6,7 @@ station (:mod:`.gcs`) in this process, the autopilot wherever it runs.
 
 from __future__ import annotations
 
-import sys
-from typing import TYPE_CHECKING, Any, cast
+from typing import Any
 
 from ..core.errors import MessageTypeError, MulticosimError
 from ..core.interfaces import Node
@@ -16,9 +15,6 @@ from ..local import (
     InProcessFirmwareNode,
 )
 from .mission import Configuration, MissionResult
-
-if TYPE_CHECKING:
-    from ..docker import ContainerNode
 
 __all__ = ["MissionNode"]
 
@@ -29,7 +25,9 @@ class MissionNode:
     ``send`` acts as the ground station (the reference's MAVSDK script): it validates the
     configuration (``check``), sets parameters, uploads the mission, arms, starts it and
     records the trajectory until the mission ends or its time limit passes. ``component``
-    is what started it (its ``world`` has home, its ``geofence`` bounds missions).
+    is what started it (its ``world`` has home, its ``geofence`` bounds missions);
+    ``autopilot_node`` the autopilot's node (in this process, a process, a container, or
+    real firmware with its bridges); ``ground_station`` the ground station's.
     """
 
     def __init__(
@@ -40,26 +38,18 @@ class MissionNode:
         component: Any,
     ) -> None:
         self.name = name
-        self._gcs = gcs
-        self._autopilot = autopilot
-        self._component = component
+        self.ground_station = gcs
+        self.autopilot_node = autopilot
+        self.component = component
         self._stopped = False
 
-    @property
-    def container(self) -> ContainerNode | None:
-        """The autopilot's container node when it runs in one (the docker backend)."""
-        # Also how a ContainerSimulation finds it, to signal it at stop with the others.
-        # Without the docker backend loaded there is no container (and no SDK to import).
-        docker_node = sys.modules.get("multicosim.docker.node")
-        # Real firmware's nodes keep its process or container as ``process``.
-        node = getattr(self._autopilot, "process", self._autopilot)
-        if docker_node is not None and isinstance(node, docker_node.ContainerNode):
-            return cast("ContainerNode", node)
-        return None
+    def parts(self) -> list[Node]:
+        """The autopilot's node, then the ground station's."""
+        return [self.autopilot_node, self.ground_station]
 
     def check(self, msg: Configuration) -> None:
         """Raise ConfigurationError if ``msg`` cannot be flown (a waypoint outside the fence)."""
-        msg.check_geofence(self._component.world.home, self._component.geofence)
+        msg.check_geofence(self.component.world.home, self.component.geofence)
 
     def send(self, msg: Configuration) -> MissionResult:
         """Fly the mission in ``msg`` and return its result."""
@@ -70,7 +60,7 @@ class MissionNode:
                 "msg", msg, f"a {type_name(Configuration)} (the message type of {self.name!r})"
             )
         self.check(msg)
-        return self._gcs.send(msg)
+        return self.ground_station.send(msg)
 
     def stop(self) -> None:
         """Stop the ground station and the autopilot; idempotent."""
@@ -80,6 +70,6 @@ class MissionNode:
         from ..local.simulation import stop_all
 
         stop_all(
-            [(f"{self.name}.gcs", self._gcs.stop), (self.name, self._autopilot.stop)],
+            [(f"{self.name}.gcs", self.ground_station.stop), (self.name, self.autopilot_node.stop)],
             f"component {self.name!r}",
         )

@@ -66,7 +66,7 @@ class QuadrotorVehicle:
         """Apply the latest motor outputs (zero while disarmed)."""
         sub = self._actuators
         assert sub is not None, "setup() was not called"
-        if sub._deliveries:
+        if sub.fresh:
             latest = sub.latest
             self._cmd = read(latest, HilActuatorControls) if self.wire == "mavlink" else latest
         cmd = self._cmd

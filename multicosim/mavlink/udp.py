@@ -79,7 +79,7 @@ class UdpBridge:
                 self.received += 1
                 ctx.publish(self.uplink, MavlinkPacket(data))
         down = self._down
-        if down is not None and down._deliveries:
+        if down is not None and down.fresh:
             for packet in down.messages:
                 for sock, peer in self._socks:
                     with contextlib.suppress(OSError):

@@ -43,8 +43,6 @@ from ..mavlink.params import read_params
 Gazebo = MuJoCo  # the paper's name for the world configuration
 
 _LAZY = {
-    "BACKENDS": "..core.fidelity",
-    "Backend": "..core.fidelity",
     "Fidelity": "..core.fidelity",
     "FIDELITIES": "..core.fidelity",
     "HIGH_FIDELITY_WORLD": ".scenario",
@@ -59,13 +57,11 @@ _LAZY = {
 }
 
 __all__ = [
-    "BACKENDS",
     "FIDELITIES",
     "HIGH_FIDELITY_WORLD",
     "PX4",
     "SITL",
     "SITL_LEVEL",
-    "Backend",
     "Configuration",
     "Fidelity",
     "FlightSample",
@@ -86,7 +82,7 @@ __all__ = [
 ]
 
 if TYPE_CHECKING:
-    from ..core.fidelity import BACKENDS, FIDELITIES, Backend, Fidelity
+    from ..core.fidelity import FIDELITIES, Fidelity
     from .levels import SITL_LEVEL, sitl_level
     from .scenario import (
         HIGH_FIDELITY_WORLD,

@@ -1,47 +1,44 @@
 """The paper's PX4 classes: ``PX4Component``, the ``PX4`` simulator and its simulation.
 
-Fidelity picks the models, the backend where they run (the mission logic is the same code):
+Fidelity picks the models, the placement where they run (the mission logic is the same code):
 
 =========  ==========================  ====================================================
-fidelity   world                       ``backend="process"``
+fidelity   world                       default placement
 =========  ==========================  ====================================================
-low        point mass, ideal sensors   world, autopilot and ground station in this process
-medium     MJCF quadrotor in MuJoCo    world and autopilot as two local processes stepped
-           (2 ms step), noisy sensors  in lockstep, exchanging MAVLink HIL frames; ground
-                                       station in this process
+low        point mass, ideal sensors   ``in-process``: world, autopilot and ground station
+                                       in this process
+medium     MJCF quadrotor in MuJoCo    ``process``: world and autopilot as two local
+           (2 ms step), noisy sensors  processes stepped in lockstep, exchanging MAVLink
+                                       HIL frames; ground station in this process
 high       as medium, 0.5 ms step and  as medium
            twice the solver iterations
 =========  ==========================  ====================================================
 
-``backend="docker"`` runs the world and the autopilot, at any fidelity, as containers of
-``multicosim.docker.RUNTIME_IMAGE`` on the simulation's network, exchanging what the process
-backend exchanges at that fidelity (native messages at low, MAVLink HIL frames above); the
-ground station stays in this process. A seed gives the same flight on both backends at the
-same fidelity.
+Any registered placement runs any fidelity: ``placement="docker"`` runs the world and the
+autopilot as containers of ``multicosim.docker.RUNTIME_IMAGE``, exchanging what processes
+exchange at that fidelity (native messages at low, MAVLink HIL frames above); the ground
+station always stays in this process. A seed gives the same flight in every placement at
+the same fidelity. Real PX4 (``firmware=SITL(...)``) runs where the placement runs programs
+(a local process, a container); the world is then its simulator, in this process beside
+PX4's simulator bridge, as Gazebo is PX4's.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
-import sys
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, cast
+from typing import TYPE_CHECKING, Any
 
 import msgspec
 
 from ..core.errors import ConfigurationError
-from ..core.fidelity import BACKENDS, Backend, Fidelity, check_fidelity
+from ..core.fidelity import Fidelity, check_fidelity
 from ..core.interfaces import Component, Node, NodeId
 from ..local import (
-    InProcessComponent,
     InProcessFirmwareComponent,
+    InProcessNode,
     LocalEnvironment,
-    ProcessComponent,
-    ProcessSimulation,
-    ProcessSimulator,
-    ScenarioSimulation,
-    participant_command,
     required_images,
 )
 from ..mavlink.gcs import GcsSpec, ground_station
@@ -54,15 +51,17 @@ from ..mavlink.mission import (
     world_topics,
 )
 from ..mavlink.node import MissionNode
+from ..placement import ParticipantProgram, Placement, Scenario, ScenarioSimulation, resolve
+from ..placement.firmware import FirmwareNodes, ProgramNode, preflight_program
 from .autopilot.firmware import Autopilot, AutopilotSpec
-from .sitl import SENSOR_RATE, SITL, start_sitl
-from .world import WorldSpec, world
+from .sitl import SENSOR_RATE, SITL, image_of, start_sitl
+from .world import WorldSpec
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
 
     from ..attacks import InjectorComponent, Model
-    from ..docker import ContainerEnvironment, ContainerSimulator
+    from ..local import ProcessSimulation
     from ..trace import TraceOptions
 
 __all__ = [
@@ -92,63 +91,32 @@ def sitl_period(world: MuJoCo) -> float:
     return round(world.timestep * steps, 9)
 
 
-def _check_image(image: object) -> None:
-    if image is not None and (not isinstance(image, str) or not image.strip()):
-        raise ConfigurationError("image", image, "None or a local image name such as 'name:tag'")
-
-
-def _in_process(fidelity: str, process: bool | None) -> bool:
-    # Also picks the wire: native messages in-process, MAVLink HIL frames between processes.
-    # A container (``image``) keeps the wire of its fidelity, so that a seed gives the same
-    # flight in a container as on the process backend.
-    return not (process if process is not None else fidelity != "low")
-
-
-def _participant_command(factory: str, spec: msgspec.Struct) -> list[str]:
-    return [sys.executable, "-m", *participant_command(factory, spec)]
-
-
-def _start_participant(
-    environment: LocalEnvironment, name: str, factory: str, spec: msgspec.Struct, image: str | None
-) -> Node:
-    """Start participant ``factory(spec)`` as a local process, or a container of ``image``."""
-    if image is None:
-        return ProcessComponent(_participant_command(factory, spec), name=name).start(environment)
-    from ..docker import ContainerComponent, ContainerEnvironment
-
-    if not isinstance(environment, ContainerEnvironment):
-        raise ConfigurationError(
-            "image", image, "None outside a ContainerSimulator (containers need its network)"
-        )
-    return ContainerComponent(image, participant_command(factory, spec), name=name).start(
-        environment
-    )
+def wire_of(fidelity: Fidelity, placement: Placement, real_firmware: bool = False) -> Wire:
+    """How sensor payloads travel between world and autopilot: native Structs at low
+    fidelity and where both share a process (real firmware's world shares its bridge's),
+    MAVLink HIL frames between processes above, as PX4 SITL exchanges them."""
+    native = fidelity == "low" or real_firmware or placement.in_process
+    return "native" if native else "mavlink"
 
 
 @dataclasses.dataclass(frozen=True)
 class WorldComponent:
     """The quadrotor world as a component (point mass at low fidelity, MuJoCo above).
 
-    It runs in this process at low fidelity and as a local process above (``process``
-    overrides that), or as a container of ``image`` when one is given (in a
-    ContainerSimulator).
+    ``placement`` is where it runs (a registered name, a Placement, or None: the fidelity's
+    default).
     """
 
     world: MuJoCo = dataclasses.field(default_factory=MuJoCo)
     fidelity: Fidelity = "low"
     name: str = "world"
-    process: bool | None = None
-    image: str | None = None
+    placement: str | Placement | None = None
 
     def __post_init__(self) -> None:
         check_fidelity(self.fidelity)
         if not isinstance(self.world, MuJoCo):
             raise ConfigurationError("world", self.world, "a px4.MuJoCo configuration")
-        _check_image(self.image)
-
-    def required_images(self) -> tuple[str, ...]:
-        """The image it runs in, if any (checked before a ContainerSimulator starts)."""
-        return (self.image,) if self.image is not None else ()
+        resolve(self.placement, self.fidelity)
 
     @property
     def spec(self) -> WorldSpec:
@@ -157,43 +125,70 @@ class WorldComponent:
         return WorldSpec(
             model="point_mass" if low else "mujoco",
             world=self.world,
-            wire="native" if _in_process(self.fidelity, self.process) else "mavlink",
+            wire=wire_of(self.fidelity, resolve(self.placement, self.fidelity)),
             point_mass_period=LOW_PERIOD,
         )
 
+    def _placed(self) -> Component[Any, Node]:
+        program = ParticipantProgram("multicosim.px4.world:world", self.spec, self.name)
+        return resolve(self.placement, self.fidelity).participant(program)
+
+    def required_images(self) -> tuple[str, ...]:
+        """The images its placement needs (checked before a run that runs containers starts)."""
+        return tuple(required_images(self._placed()))
+
     def start(self, environment: LocalEnvironment) -> Node:
-        """Start the world in this process, as a process or as a container."""
-        spec = self.spec
-        if self.image is None and _in_process(self.fidelity, self.process):
-            return InProcessComponent(lambda: world(spec), self.name).start(environment)
-        return _start_participant(
-            environment, self.name, "multicosim.px4.world:world", spec, self.image
-        )
+        """Start the world where its placement runs it."""
+        return self._placed().start(environment)
 
 
 class PX4Node(MissionNode):
     """The PX4 firmware node: ``send(Configuration) -> MissionResult`` flies a mission."""
 
-    _component: PX4Component
+    component: PX4Component
 
     @property
     def autopilot(self) -> Autopilot | None:
         """The live autopilot object when it runs in this process (for inspection)."""
-        return getattr(self._autopilot, "participant", None)
+        node = self.autopilot_node
+        return node.participant if isinstance(node, InProcessNode) else None
+
+    @property
+    def firmware_nodes(self) -> FirmwareNodes | None:
+        """Real PX4's program and bridges (None for the built-in autopilot)."""
+        node = self.autopilot_node
+        return node if isinstance(node, FirmwareNodes) else None
+
+    @property
+    def program(self) -> ProgramNode | None:
+        """Real PX4's process or container (None for the built-in autopilot)."""
+        nodes = self.firmware_nodes
+        return nodes.program if nodes is not None else None
+
+    @property
+    def instance(self) -> int | None:
+        """Real PX4's instance number (``px4 -i N``; None for the built-in autopilot)."""
+        nodes = self.firmware_nodes
+        return nodes.instance if nodes is not None else None
+
+    def flight_logs(self, into: Path) -> list[Path]:
+        """Real PX4's ULog files so far (``log/**/*.ulg`` of its working directory; from a
+        container, copied into ``into`` first). Empty for the built-in autopilot."""
+        nodes = self.firmware_nodes
+        return nodes.files("log", ".ulg", into) if nodes is not None else []
 
 
 @dataclasses.dataclass(frozen=True)
 class PX4Component:
-    """PX4 plus its ground station, for any ProcessSimulator (the paper's ``PX4Component``).
+    """PX4 plus its ground station, for any lockstep simulator (the paper's ``PX4Component``).
 
     ``firmware`` picks the autopilot: None for the built-in PX4-compatible one, or a
     :class:`~multicosim.px4.SITL` for real PX4 SITL flying the world. ``world`` tells it
     where home is and which topics carry the sensors (``topics`` overrides the autopilot's
     side only, to read from an injector); ``params`` sets PX4 parameters (``MPC_XY_CRUISE``,
-    ``NAV_ACC_RAD``, ...); ``geofence`` bounds missions. The built-in autopilot runs where
-    WorldComponent's world does (``process``, ``image``); real PX4 runs as a process, or as
-    a container of ``image`` in a ContainerSimulator. The ground station always runs in
-    this process.
+    ``NAV_ACC_RAD``, ...); ``geofence`` bounds missions. ``placement`` is where the
+    autopilot runs (None: the fidelity's default); the ground station always runs in this
+    process.
     """
 
     world: MuJoCo = dataclasses.field(default_factory=MuJoCo)
@@ -203,15 +198,8 @@ class PX4Component:
     params: dict[str, float] = dataclasses.field(default_factory=dict)
     telemetry_rate: float | None = None
     topics: Topics | None = None
-    process: bool | None = None
-    image: str | None = None
+    placement: str | Placement | None = None
     firmware: SITL | None = None
-
-    def required_images(self) -> tuple[str, ...]:
-        """The image the autopilot runs in, if any (checked before a ContainerSimulator starts)."""
-        if self.firmware is not None:
-            return (self.firmware.image,) if self.firmware.image is not None else ()
-        return (self.image,) if self.image is not None else ()
 
     @property
     def rate(self) -> float:
@@ -226,7 +214,7 @@ class PX4Component:
             raise ConfigurationError("world", self.world, "a px4.MuJoCo configuration")
         if not isinstance(self.geofence, Geofence):
             raise ConfigurationError("geofence", self.geofence, "a px4.Geofence")
-        _check_image(self.image)
+        placement = resolve(self.placement, self.fidelity)
         if self.firmware is not None:
             if not isinstance(self.firmware, SITL):
                 raise ConfigurationError(
@@ -239,6 +227,14 @@ class PX4Component:
                     "'medium' or 'high' with real PX4 (it flies the MuJoCo world; low "
                     "fidelity is the built-in autopilot's point mass)",
                 )
+            preflight_program(
+                placement,
+                self.name,
+                command=self.firmware.binary is not None,
+                image=image_of(self.firmware),
+                needs="px4.SITL(binary=...) to run PX4 on this machine, or "
+                "px4.SITL(image=...) with placement='docker'",
+            )
         self.spec  # noqa: B018 - validates params, rates and topics now, before any start
 
     @property
@@ -250,13 +246,14 @@ class PX4Component:
             "GF_MAX_VER_DIST": self.geofence.max_alt,
             **self.params,
         }
+        placement = resolve(self.placement, self.fidelity)
         return AutopilotSpec(
             airframe="point_mass" if low else "quadrotor",
             period=LOW_PERIOD if low else self.world.period,
             topics=self.topics or world_topics(self.world),
             uplink=f"{self.name}/mavlink/up",
             downlink=f"{self.name}/mavlink/down",
-            wire="native" if _in_process(self.fidelity, self.process) else "mavlink",
+            wire=wire_of(self.fidelity, placement, self.firmware is not None),
             telemetry_rate=self.rate,
             params=params,
             mag_declination=self.world.declination,
@@ -275,24 +272,28 @@ class PX4Component:
             **self.firmware.params,
         }
 
+    def _autopilot(self) -> Component[Any, Node]:
+        program = ParticipantProgram(
+            "multicosim.px4.autopilot.firmware:autopilot", self.spec, self.name
+        )
+        return resolve(self.placement, self.fidelity).participant(program)
+
+    def required_images(self) -> tuple[str, ...]:
+        """The images its placement needs (checked before a run that runs containers starts)."""
+        if self.firmware is not None:
+            placement = resolve(self.placement, self.fidelity)
+            image = image_of(self.firmware)
+            return preflight_program(
+                placement, self.name, command=self.firmware.binary is not None, image=image
+            )
+        return tuple(required_images(self._autopilot()))
+
     def start(self, environment: LocalEnvironment) -> PX4Node:
-        """Start the autopilot (in-process, a process or a container) and the ground station."""
+        """Start the autopilot where it is placed, then the ground station here."""
         spec = self.spec
         if self.firmware is not None:
             return self._start_sitl(environment, spec)
-        if self.image is None and _in_process(self.fidelity, self.process):
-            autopilot: Node = InProcessComponent(lambda: Autopilot(spec), self.name).start(
-                environment
-            )
-        else:
-            autopilot = _start_participant(
-                environment,
-                self.name,
-                "multicosim.px4.autopilot.firmware:autopilot",
-                spec,
-                self.image,
-            )
-        return self._with_ground_station(environment, spec, autopilot)
+        return self._with_ground_station(environment, spec, self._autopilot().start(environment))
 
     def _with_ground_station(
         self, environment: LocalEnvironment, spec: AutopilotSpec, autopilot: Node, **gcs: Any
@@ -316,12 +317,12 @@ class PX4Component:
 
     def _start_sitl(self, environment: LocalEnvironment, spec: AutopilotSpec) -> PX4Node:
         assert self.firmware is not None
-        topics = spec.topics
         group = start_sitl(
             self.firmware,
+            resolve(self.placement, self.fidelity),
             environment,
             name=self.name,
-            topics=topics,
+            topics=spec.topics,
             period=sitl_period(self.world),
             wire=spec.wire,
             uplink=spec.uplink,
@@ -348,13 +349,13 @@ class PX4Simulation(ScenarioSimulation):
     @property
     def home(self) -> Home:
         """Where the autopilot's home is (latitude, longitude, altitude AMSL): the origin."""
-        return self.firmware._component.world.home
+        return self.firmware.component.world.home
 
     def trace_options(self) -> TraceOptions:
         """What a recorder of this simulation should know (types, decoders, Foxglove channels)."""
         from .trace import trace_options
 
-        component = self.firmware._component
+        component = self.firmware.component
         return trace_options(component.spec, component.world)
 
     def flight_logs(self) -> list[Path]:
@@ -364,27 +365,22 @@ class PX4Simulation(ScenarioSimulation):
         built-in autopilot. A log is complete once PX4 has disarmed (it logs from boot
         until disarm).
         """
-        nodes = getattr(self.firmware._autopilot, "flight_logs", None)
-        if nodes is None:
-            return []
-        logs: list[Path] = nodes(self.simulation.run_dir / "px4-ulog")
-        return logs
+        return self.firmware.flight_logs(self.run_dir / "px4-ulog")
 
 
-class PX4:
+class PX4(Scenario[PX4Simulation]):
     """A Simulator with the quadrotor world and PX4 already added (the paper's ``px4.PX4``).
 
     ``fidelity`` picks the models ("low": point mass; "medium": MuJoCo; "high": MuJoCo at a
-    finer step, ``HIGH_FIDELITY_WORLD``, unless ``world`` is given); ``backend`` where the
-    world and the autopilot run ("process": in this process at low fidelity, else local
-    processes; "docker": containers of ``multicosim.docker.RUNTIME_IMAGE``, built with
-    ``multicosim images build``). ``firmware`` picks the autopilot: None for the
-    built-in one, ``px4.SITL(binary=...)`` for real PX4 SITL (a process on the process
-    backend, a container on the docker backend) flying the MuJoCo world, which then runs
-    in this process (or its container) at PX4's 250 Hz sensor rate. ``seed`` fixes every
-    random source of the world; ``realtime`` paces the simulation to wall time (for external
-    ground stations). More components (injectors, monitors) can be added with ``add``
-    before ``start``.
+    finer step, ``HIGH_FIDELITY_WORLD``, unless ``world`` is given); ``placement`` where the
+    world and the autopilot run (a registered name such as ``"in-process"``, ``"process"``
+    or ``"docker"``; None: this process at low fidelity, local processes above).
+    ``firmware`` picks the autopilot: None for the built-in one, ``px4.SITL(binary=...)``
+    for real PX4 SITL (run where the placement runs programs: a local process, or a
+    container of its image) flying the MuJoCo world, which then runs in this process at
+    PX4's 250 Hz sensor rate. ``seed`` fixes every random source of the world; ``realtime``
+    paces the simulation to wall time (for external ground stations). More components
+    (injectors, monitors) can be added with ``add`` before ``start``.
     """
 
     def __init__(
@@ -392,7 +388,7 @@ class PX4:
         world: MuJoCo | None = None,
         *,
         fidelity: Fidelity = "low",
-        backend: Backend = "process",
+        placement: str | Placement | None = None,
         seed: int = 0,
         realtime: float | None = None,
         geofence: Geofence | None = None,
@@ -407,38 +403,7 @@ class PX4:
         if not isinstance(world, MuJoCo):
             raise ConfigurationError("world", world, "a px4.MuJoCo configuration")
         if firmware is not None and isinstance(firmware, SITL):
-            if backend == "process" and firmware.binary is None:
-                raise ConfigurationError(
-                    "firmware",
-                    firmware,
-                    "px4.SITL(binary=...) on the process backend (an image runs on "
-                    "backend='docker')",
-                )
             world = dataclasses.replace(world, period=sitl_period(world))
-        if backend not in BACKENDS:
-            raise ConfigurationError(
-                "backend",
-                backend,
-                f"one of {BACKENDS} (a real PX4 SITL image: see multicosim.px4.real)",
-            )
-        self.world = world
-        self.fidelity: Fidelity = fidelity
-        self.backend: Backend = backend
-        self._sim: ProcessSimulator | ContainerSimulator
-        image: str | None = None
-        if backend == "docker":
-            from ..docker import RUNTIME_IMAGE, ContainerSimulator
-
-            self._sim = ContainerSimulator(seed=seed, realtime=realtime, run_dir=run_dir)
-            image = RUNTIME_IMAGE
-        else:
-            self._sim = ProcessSimulator(seed=seed, realtime=realtime, run_dir=run_dir)
-        # With real PX4 as a process, the world is its simulator in this process (as Gazebo
-        # is PX4's): one lockstep exchange per 4 ms step instead of two.
-        process = False if firmware is not None and backend == "process" else None
-        self.world_id: NodeId[Node] = self._sim.add(
-            WorldComponent(world, fidelity, image=image, process=process)
-        )
         self._firmware = PX4Component(
             world,
             fidelity,
@@ -446,11 +411,22 @@ class PX4:
             params=dict(params or {}),
             telemetry_rate=telemetry_rate,
             topics=autopilot_topics,
-            image=image if firmware is None else None,
-            process=process,
+            placement=placement,
             firmware=firmware,
         )
-        self.firmware_id: NodeId[PX4Node] = self._sim.add(self._firmware)
+        super().__init__(
+            fidelity=fidelity, placement=placement, seed=seed, realtime=realtime, run_dir=run_dir
+        )
+        self.world = world
+        # With real PX4 the world is its simulator, beside PX4's bridge in this process (as
+        # Gazebo is PX4's): one lockstep exchange per 4 ms step instead of two.
+        self.world_placement: Placement = (
+            resolve("in-process", fidelity) if firmware is not None else self.placement
+        )
+        self.world_id: NodeId[Node] = self._add_own(
+            WorldComponent(world, fidelity, placement=self.world_placement)
+        )
+        self.firmware_id: NodeId[PX4Node] = self._add_own(self._firmware, anchor=True)
 
     @property
     def firmware(self) -> SITL | None:
@@ -464,10 +440,7 @@ class PX4:
 
     @property
     def wire(self) -> Wire:
-        """How sensor payloads travel between world and autopilot (an injector must match).
-
-        Native Structs at low fidelity, MAVLink HIL frames above, on both backends.
-        """
+        """How sensor payloads travel between world and autopilot (an injector must match)."""
         return self._firmware.spec.wire
 
     def inject_faults(
@@ -476,7 +449,7 @@ class PX4:
         """Put an injector with ``models`` on ``sensor`` (see :func:`multicosim.attacks.inject`).
 
         The autopilot reads the sensor from ``<topic>/attacked``, which the injector fills
-        from the world's topic.
+        from the world's topic; the injector runs where the world does.
         """
         from ..attacks import InjectorConfig, add_injector, canonical
         from . import injectable  # noqa: F401 - registers PX4's sensors
@@ -494,20 +467,11 @@ class PX4:
             target=f"{source}/attacked",
             period=LOW_PERIOD if self.fidelity == "low" else self.world.period,
             models=tuple(models),
-            # The world's wire: what the scenario's world and autopilot exchange (Structs at
-            # low fidelity, on either backend; MAVLink frames between processes above).
+            # The world's wire: what the scenario's world and autopilot exchange.
             wire=self.wire,
         )
-        # Where the world runs: in this process at low fidelity, and as real PX4's simulator.
-        in_process = self.backend == "process" and (
-            self.fidelity == "low" or self.firmware is not None
-        )
         component = add_injector(
-            self,
-            config,
-            name=name or f"{sensor}-injector",
-            in_process=in_process,
-            backend=self.backend,
+            self, config, name=name or f"{sensor}-injector", placement=self.world_placement
         )
         self.read_sensor_from(sensor, config.target)
         return component
@@ -521,37 +485,8 @@ class PX4:
             raise ConfigurationError("sensor", sensor, "one of 'imu', 'mag', 'baro', 'gps'")
         topics = Topics(**{**msgspec.structs.asdict(self.autopilot_topics), sensor: topic})
         self._firmware = dataclasses.replace(self._firmware, topics=topics)
-        self._sim.replace(self.firmware_id, self._firmware)
-
-    def add(self, component: Component[ContainerEnvironment, Any]) -> NodeId[Any]:
-        """Add another component (an injector, a monitor) to the simulation.
-
-        Any component runs on the docker backend; container components need it.
-        """
-        if self.backend != "docker" and required_images(component):
-            raise ConfigurationError(
-                "component",
-                component,
-                "a component of the process backend (containers need backend='docker')",
-            )
-        # Typed for the docker backend, which takes every component; the process backend
-        # gets no container component (refused above).
-        # Before the autopilot: what an injector publishes reaches it in the same instant.
-        return self._sim.add(
-            cast("Component[LocalEnvironment, Any]", component), before=self.firmware_id
-        )
+        self.replace(self.firmware_id, self._firmware)
 
     def start(self) -> PX4Simulation:
         """Start the world and PX4 (and anything added); return the simulation."""
-        sitl = self._firmware.firmware
-        if sitl is not None and self.backend == "docker" and sitl.image is None:
-            # Real PX4 in a container: its image is built from the binary's bundle (once;
-            # a build whose inputs did not change is skipped).
-            from ..docker import build_px4
-
-            image = build_px4(sitl.bundle)
-            self._firmware = dataclasses.replace(
-                self._firmware, firmware=dataclasses.replace(sitl, image=image)
-            )
-            self._sim.replace(self.firmware_id, self._firmware)
-        return PX4Simulation(self._sim.start(), self.firmware_id, self.world_id)
+        return PX4Simulation(self._start_simulation(), self.firmware_id, self.world_id)

@@ -33,31 +33,40 @@ import math
 import os
 import re
 import socket
-import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 from ..core.errors import ConfigurationError, NodeStartError
-from ..local import ending, mark_reported
+from ..core.interfaces import Component, Node
 from ..mavlink.hil import Wire
 from ..mavlink.hil_bridge import SIM_PORT, HilTcpBridge
 from ..mavlink.mission import Topics
 from ..mavlink.params import PARAM_NAME
-from ..mavlink.sitl import (
-    SitlNodes,
+from ..mavlink.udp import API_PORT, GCS_PORT, Link, UdpBridge
+from ..placement import Endpoint, Placement, ProgramSpec
+from ..placement.firmware import (
+    FirmwareNodes,
+    ProgramNode,
     check_first_instance,
-    is_container_environment,
+    launch,
     param_value,
-    run_container,
     udp_free,
 )
-from ..mavlink.udp import API_PORT, GCS_PORT
 
 if TYPE_CHECKING:
     from ..local import LocalEnvironment
 
-__all__ = ["API_LOCAL_PORT", "SITL", "claim_instance", "launch_command", "prepare_rootfs"]
+__all__ = [
+    "API_LOCAL_PORT",
+    "SITL",
+    "PX4Launch",
+    "claim_instance",
+    "image_of",
+    "launch_command",
+    "prepare_rootfs",
+    "start_sitl",
+]
 
 log = logging.getLogger(__name__)
 
@@ -355,30 +364,152 @@ def container_command(
 # -- starting it ----------------------------------------------------------------------------
 
 
-def wait_connected(bridge: HilTcpBridge, process: Any, name: str, timeout: float) -> None:
-    """Wait until PX4 connects to ``bridge``; NodeStartError with its output if it does not."""
-    deadline = time.monotonic() + timeout
-    while not bridge.poll_connection():
-        code = process.poll()
-        if code is not None:
-            mark_reported(process)  # this error says it; stopping the process need not again
-            raise NodeStartError(
-                name,
-                f"{ending(process)} before it connected to its simulator",
-                exit_code=code,
-                log_tail=process.log_tail(),
+class PX4Launch:
+    """Real PX4 for the firmware launcher (:func:`multicosim.placement.firmware.launch`).
+
+    Claims an instance (its simulator port bound, its UDP ports and lock file checked free)
+    where PX4 shares this machine's ports, or instance 0 on a network of its own; starts the
+    simulator bridge (and, with an ``uplink``, the bridge of its MAVLink link to our ground
+    station) in this process; runs PX4 in a fresh working directory (or its image's).
+    """
+
+    waiting_for = "connect to its simulator"
+
+    def __init__(
+        self,
+        sitl: SITL,
+        *,
+        name: str,
+        topics: Topics,
+        period: float,
+        wire: Wire,
+        uplink: str | None,
+        downlink: str,
+        params: Mapping[str, float],
+    ) -> None:
+        self.sitl = sitl
+        self.name = name
+        self.start_timeout = sitl.start_timeout
+        self._topics = topics
+        self._period = period
+        self._wire = wire
+        self._uplink = uplink
+        self._downlink = downlink
+        self._params = params
+        self._server: socket.socket | None = None
+        self.instance = 0
+        self.bridge: HilTcpBridge | None = None
+        self.link: UdpBridge | None = None
+
+    def claim(self, endpoint: Endpoint) -> int:
+        """Instance 0 on a private network; else the first free instance from the SITL's."""
+        if endpoint.private:
+            self.instance, self._server = 0, _listen(endpoint.host, SIM_PORT)
+        else:
+            self.instance, self._server = claim_instance(
+                endpoint.host, gcs_link=self._uplink is None, first=self.sitl.first_instance
             )
-        if time.monotonic() > deadline:
-            raise NodeStartError(
-                name,
-                f"did not connect to its simulator (port {bridge.port}) within {timeout:g} s",
-                log_tail=process.log_tail(),
+        return self.instance
+
+    def bridges(self, endpoint: Endpoint) -> list[tuple[str, Component[Any, Node]]]:
+        """The simulator bridge, and the bridge of PX4's API link to our ground station."""
+        from ..local import InProcessComponent
+
+        server = self._server
+        assert server is not None
+
+        def simulator_bridge() -> HilTcpBridge:
+            self.bridge = HilTcpBridge(
+                self._topics,
+                period=self._period,
+                server=server,
+                lockstep_timeout=self.sitl.lockstep_timeout,
+                wire=self._wire,
+                name=self.name,
             )
-        time.sleep(0.02)
+            return self.bridge
+
+        found: list[tuple[str, Component[Any, Node]]] = [
+            (f"{self.name}.hil", InProcessComponent(simulator_bridge, f"{self.name}.hil"))
+        ]
+        uplink = self._uplink
+        if uplink is not None:
+            # The bridge carries a ground station's UDP traffic to an autopilot's topics; here
+            # PX4 is on the UDP side, so what it sends goes down to our ground station.
+            local = Link(API_LOCAL_PORT + self.instance, 0, endpoint.host)
+
+            def api_link() -> UdpBridge:
+                self.link = UdpBridge([local], self._downlink, uplink, 0.01)
+                return self.link
+
+            found.append((f"{self.name}.link", InProcessComponent(api_link, f"{self.name}.link")))
+        return found
+
+    def _links(self, endpoint: Endpoint) -> list[MavlinkLink] | None:
+        if self.link is not None:
+            port = self.link.local_ports[0]
+            return [MavlinkLink(API_LOCAL_PORT + self.instance, endpoint.host, port)]
+        # On a network of its own, PX4 sends its usual links to the host's ports.
+        return gateway_links(endpoint.host, self.instance) if endpoint.private else None
+
+    def program(self, endpoint: Endpoint, workdir: Path) -> ProgramSpec:
+        """PX4 in ``workdir`` (a binary), or the PX4 image (built from the binary's bundle
+        when only a binary is given)."""
+        sitl, links = self.sitl, self._links(endpoint)
+        command = env = None
+        if sitl.binary is not None:
+            env = prepare_rootfs(sitl, workdir, params=self._params, links=links)
+            command = launch_command(sitl, workdir, self.instance)
+        image_command = container_command(
+            instance=self.instance,
+            sim_host=endpoint.host,
+            links=links or [],
+            params=self._params,
+            model=sitl.model,
+        )
+        return ProgramSpec(
+            name=self.name,
+            command=command,
+            env=env or {},
+            cwd=str(workdir),
+            image=image_of(sitl),
+            image_command=image_command,
+            image_workdir=CONTAINER_ROOTFS,
+        )
+
+    def started(self, program: ProgramNode, endpoint: Endpoint) -> None:
+        """Watch PX4 from the simulator bridge (its exit fails the step that waits on it)."""
+        assert self.bridge is not None
+        self.bridge.watch = program
+
+    def ready(self) -> bool:
+        """Whether PX4 has connected to its simulator bridge."""
+        return self.bridge is not None and self.bridge.poll_connection()
+
+    def release(self) -> None:
+        """Close the claimed simulator port unless the bridge took it."""
+        if self.bridge is None and self._server is not None:
+            self._server.close()
+
+
+def image_of(sitl: SITL) -> str | Callable[[], str] | None:
+    """The PX4 image a container runs: the SITL's, or one built from its binary's bundle
+    (on first use; a build whose inputs did not change is skipped)."""
+    if sitl.image is not None or sitl.binary is None:
+        return sitl.image
+    bundle = sitl.bundle
+
+    def build() -> str:
+        from .image import build_image
+
+        return build_image(bundle)
+
+    return build
 
 
 def start_sitl(
     sitl: SITL,
+    placement: Placement,
     environment: LocalEnvironment,
     *,
     name: str,
@@ -388,81 +519,25 @@ def start_sitl(
     uplink: str | None,
     downlink: str,
     params: Mapping[str, float],
-) -> SitlNodes:
-    """Start PX4 (a process, or a container in a ContainerSimulator) with its bridges.
+) -> FirmwareNodes:
+    """Start PX4 where ``placement`` runs programs, with its bridges in this process.
 
     With an ``uplink``, PX4's one MAVLink link is carried on ``uplink``/``downlink`` (for
     the simulation's ground station); without, PX4 keeps its own links on its usual ports
     (standalone SITL). Returns once PX4 has connected to its simulator bridge; PX4 then
-    waits, in lockstep, for the simulation's clock. Every part started is stopped again if
-    a later one fails.
+    waits, in lockstep, for the simulation's clock.
     """
-    from ..local import InProcessComponent, ProcessComponent
-    from ..mavlink.udp import Link, UdpBridge
-
-    group = SitlNodes(name, container_logs=f"{CONTAINER_ROOTFS}/log")
-    container = is_container_environment(environment)
-    with group.starting():
-        if container:
-            # Each simulation has a network of its own: PX4 is instance 0 in its container
-            # and reaches the bridge on the network's gateway, where nothing else listens.
-            host = environment.gateway  # type: ignore[attr-defined]
-            instance, server = 0, _listen(host, SIM_PORT)
-        else:
-            host = "127.0.0.1"
-            instance, server = claim_instance(
-                host, gcs_link=uplink is None, first=sitl.first_instance
-            )
-        bridge_node = InProcessComponent(
-            lambda: HilTcpBridge(
-                topics,
-                period=period,
-                server=server,
-                lockstep_timeout=sitl.lockstep_timeout,
-                wire=wire,
-                name=name,
-            ),
-            f"{name}.hil",
-        ).start(environment)
-        group.add(f"{name}.hil", bridge_node)
-        bridge = bridge_node.participant
-        links: list[MavlinkLink] | None = gateway_links(host, instance) if container else None
-        if uplink is not None:
-            up = uplink
-            # The bridge carries a ground station's UDP traffic to an autopilot's topics; here
-            # PX4 is on the UDP side, so what it sends goes down to our ground station.
-            link_node = InProcessComponent(
-                lambda: UdpBridge([Link(API_LOCAL_PORT + instance, 0, host)], downlink, up, 0.01),
-                f"{name}.link",
-            ).start(environment)
-            group.add(f"{name}.link", link_node)
-            port = link_node.participant.local_ports[0]
-            links = [MavlinkLink(API_LOCAL_PORT + instance, host, port)]
-        process: Any
-        if container:
-            assert links is not None
-            process = _start_container(
-                sitl, environment, name=name, instance=instance, links=links, params=params
-            )
-        else:
-            rootfs = environment.run_dir / f"{name}-rootfs"
-            env = prepare_rootfs(sitl, rootfs, params=params, links=links)
-            group.rootfs = rootfs
-            process = ProcessComponent(
-                launch_command(sitl, rootfs, instance),
-                name=name,
-                env=env,
-                cwd=str(rootfs),
-                ready="started",
-                stop_timeout=10.0,
-            ).start(environment)
-        group.add(name, process)
-        group.process = process
-        group.instance = instance
-        bridge.watch = process
-        wait_connected(bridge, process, name, sitl.start_timeout)
-        log.info("%s: PX4 instance %d connected to its simulator", name, instance)
-    return group
+    px4 = PX4Launch(
+        sitl,
+        name=name,
+        topics=topics,
+        period=period,
+        wire=wire,
+        uplink=uplink,
+        downlink=downlink,
+        params=params,
+    )
+    return launch(px4, placement, environment)
 
 
 def _listen(host: str, port: int) -> socket.socket:
@@ -475,23 +550,3 @@ def _listen(host: str, port: int) -> socket.socket:
         sock.close()
         raise NodeStartError("px4", f"could not listen on {host}:{port} for PX4: {exc}") from exc
     return sock
-
-
-def _start_container(
-    sitl: SITL,
-    environment: Any,
-    *,
-    name: str,
-    instance: int,
-    links: Sequence[MavlinkLink],
-    params: Mapping[str, float],
-) -> Any:
-    assert sitl.image is not None
-    command = container_command(
-        instance=instance,
-        sim_host=environment.gateway,
-        links=links,
-        params=params,
-        model=sitl.model,
-    )
-    return run_container(environment, sitl.image, command, name)

@@ -21,8 +21,9 @@ import msgspec
 from ..core.fidelity import Fidelity
 from ..local import InProcessComponent, LocalEnvironment, ProcessSimulator
 from ..mavlink.mission import MuJoCo, world_topics
-from ..mavlink.sitl import SitlNodes
 from ..mavlink.udp import API_PORT, GCS_PORT, Link, UdpBridge
+from ..placement import Placement, as_placement
+from ..placement.firmware import FirmwareNodes
 from .autopilot.firmware import Autopilot
 from .scenario import PX4Component, WorldComponent
 from .sitl import SITL
@@ -85,11 +86,11 @@ def run_sitl(
     world = world or MuJoCo()
     links = links if links is not None else [Link(GCS_PORT, 18570), Link(API_PORT, 14580)]
     params = {**paced_params(speed), **(params or {})}
-    px4 = PX4Component(world, fidelity, params=params, process=False)
+    px4 = PX4Component(world, fidelity, params=params, placement="in-process")
     # PX4's API-link streams: what MAVSDK and ground stations get from real PX4 SITL.
     spec = msgspec.structs.replace(px4.spec, streams="onboard")
     sim = ProcessSimulator(seed=seed, realtime=speed)
-    sim.add(WorldComponent(world, fidelity, process=False))
+    sim.add(WorldComponent(world, fidelity, placement="in-process"))
     sim.add(InProcessComponent(lambda: Autopilot(spec), "px4"))
     bridge_id = sim.add(
         InProcessComponent(lambda: UdpBridge(links, spec.uplink, spec.downlink, spec.period), "udp")
@@ -117,13 +118,15 @@ class _StandalonePX4:
     sitl: SITL
     world: MuJoCo
     params: dict[str, float]
+    placement: Placement
     name: str = "px4"
 
-    def start(self, environment: LocalEnvironment) -> SitlNodes:
+    def start(self, environment: LocalEnvironment) -> FirmwareNodes:
         from .sitl import start_sitl
 
         return start_sitl(
             self.sitl,
+            self.placement,
             environment,
             name=self.name,
             topics=world_topics(self.world),
@@ -138,6 +141,7 @@ class _StandalonePX4:
 def run_real_sitl(
     sitl: SITL,
     *,
+    placement: str | Placement | None = None,
     speed: float = 1.0,
     world: MuJoCo | None = None,
     seed: int = 0,
@@ -149,8 +153,9 @@ def run_real_sitl(
     """Run real PX4 SITL on our MuJoCo world, paced at ``speed`` x real time, in lockstep.
 
     PX4 keeps its usual MAVLink links (QGroundControl on UDP 14550, MAVSDK on 14540 + its
-    instance number), so ground stations fly it as they fly PX4 with Gazebo. With only an
-    image, PX4 runs in a container (instance 0) whose links reach those ports on this host.
+    instance number), so ground stations fly it as they fly PX4 with Gazebo. ``placement``
+    is where PX4 runs (default: a local process with a binary, else a container of its
+    image, instance 0, whose links reach those ports on this host).
     Runs until ``duration`` simulated seconds, ``stop`` or Ctrl-C; returns the simulated
     time reached.
     ``on_ready`` gets PX4's instance number and the run directory (PX4's output and working
@@ -161,18 +166,12 @@ def run_real_sitl(
     world = world or MuJoCo()
     world = dataclasses.replace(world, period=sitl_period(world))
     params = {**paced_params(speed), **(params or {})}
-    component = PX4Component(world, "medium", params=params, firmware=sitl)
+    where = as_placement(placement or ("process" if sitl.binary is not None else "docker"))
+    component = PX4Component(world, "medium", params=params, firmware=sitl, placement=where)
     params = component.sitl_params()
-    sim: Any
-    if sitl.binary is None:
-        # In a container on a network of its own, PX4 sends its links to the host.
-        from ..docker import ContainerSimulator
-
-        sim = ContainerSimulator(seed=seed, realtime=speed)
-    else:
-        sim = ProcessSimulator(seed=seed, realtime=speed)
-    sim.add(WorldComponent(world, "medium", process=False))
-    px4_id = sim.add(_StandalonePX4(sitl, world, params))
+    sim = where.simulator(seed=seed, realtime=speed)
+    sim.add(WorldComponent(world, "medium", placement="in-process"))
+    px4_id: Any = sim.add(_StandalonePX4(sitl, world, params, where))
     with sim.start() as simulation:
         instance = simulation.get(px4_id).instance
         if on_ready is not None:

@@ -111,7 +111,7 @@ class PointMassWorld:
         """Apply the latest velocity setpoint, advance one period, publish the sensors."""
         sub = self._actuators
         assert sub is not None
-        if sub._deliveries:
+        if sub.fresh:
             latest = sub.latest
             self._cmd = read(latest, HilActuatorControls) if self._mavlink else latest
         acc = self._advance(self._cmd)

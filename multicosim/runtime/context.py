@@ -65,6 +65,16 @@ class Subscription(Generic[T]):
         return self._cache
 
     @property
+    def fresh(self) -> bool:
+        """Whether any message arrived at this step (nothing is decoded to tell)."""
+        return bool(self._deliveries)
+
+    @property
+    def stamps_ns(self) -> list[int]:
+        """When each of this step's messages was published (simulated ns), in their order."""
+        return [d.time_ns for d in self._deliveries]
+
+    @property
     def latest(self) -> T | None:
         """The most recent message received so far, or None before the first."""
         if self._deliveries and self._cache is None:
@@ -142,7 +152,8 @@ class StepContext:
             if target is not None:
                 target._deliver(d)
 
-    def _take_topics(self) -> list[str]:
+    def take_new_topics(self) -> list[str]:
+        """The topics subscribed since last asked (for the scheduler, which routes them)."""
         topics, self._new_topics = self._new_topics, []
         return topics
 
@@ -207,7 +218,8 @@ class FirmwareContext(StepContext):
             time_ns, inbox = self._driver.yield_(self.time_ns + step_ns, outbox, topics)
         self._begin(time_ns, inbox)
 
-    def _finish(self) -> None:
+    def end_call(self) -> None:
+        """Hand back the clock at the end of a call (for the runtime that made the call)."""
         if self._active and self._driver is not None:
             outbox, topics = self._take()
             self._active = False

@@ -139,7 +139,7 @@ def handle_call(
         try:
             result = fw.handler(msg, ctx)
         finally:
-            ctx._finish()
+            ctx.end_call()
         return wire.Reply(call.id, encode(result))
     except SimulationStopped:
         raise

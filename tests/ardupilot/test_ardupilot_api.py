@@ -9,13 +9,11 @@ import multicosim.ardupilot as ardupilot
 import multicosim.px4 as px4
 
 EXPECTED = {
-    "BACKENDS",
     "FIRMWARE_FIDELITIES",
     "SITL",
     "ArduPilotComponent",
     "ArduPilotNode",
     "ArduPilotSimulation",
-    "Backend",
     "Configuration",
     "Copter",
     "Fidelity",

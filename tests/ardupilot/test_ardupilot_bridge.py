@@ -33,7 +33,8 @@ pytestmark = pytest.mark.usefixtures("no_leaks")
 
 def received(simulation: ardupilot.ArduPilotSimulation) -> list[dict[str, Any]]:
     """What the stand-in received (its ``standin.jsonl``)."""
-    workdir = simulation.simulation.run_dir / "ardupilot-ardupilot"
+    workdir = simulation.firmware.firmware_nodes.workdir
+    assert workdir is not None
     return [json.loads(line) for line in (workdir / "standin.jsonl").read_text().splitlines()]
 
 
@@ -66,7 +67,7 @@ def test_the_bridge_steps_the_world_in_lockstep_with_arducopters_frames(tmp_path
     servos = probe(simulator, "ardupilot/servos", ServoOutputs, "servo-probe")
     with simulator.start() as simulation:
         simulation.advance(2.0)
-        bridge = simulation.firmware._autopilot.bridge
+        bridge = simulation.firmware.firmware_nodes.bridge
         assert bridge is not None
         frames = bridge.frames
         standin = received(simulation)
@@ -103,7 +104,7 @@ def test_a_repeated_frame_is_answered_again_without_advancing(tmp_path: Path) ->
     simulator = ardupilot.Copter(firmware_dir=str(fake_ardupilot(tmp_path, "resend")))
     with simulator.start() as simulation:
         simulation.advance(0.5)
-        bridge = simulation.firmware._autopilot.bridge
+        bridge = simulation.firmware.firmware_nodes.bridge
         assert bridge is not None
         resends = bridge.resends
         standin = received(simulation)
@@ -123,7 +124,7 @@ def test_packets_resent_while_the_simulation_paused_are_answered_once(tmp_path: 
         simulation.advance(0.1)
         time.sleep(2.5)
         simulation.advance(0.1)
-        bridge = simulation.firmware._autopilot.bridge
+        bridge = simulation.firmware.firmware_nodes.bridge
         assert bridge is not None
         stale, resends = bridge.stale, bridge.resends
         standin = received(simulation)
@@ -163,7 +164,7 @@ def test_a_firmware_that_exits_at_start_is_named_with_its_output(tmp_path: Path)
         simulator.start()
     assert info.value.name == "ardupilot"
     assert info.value.exit_code == 1
-    assert "exited before it sent a servo packet" in str(info.value)
+    assert "exited before it could send a servo packet" in str(info.value)
     assert "Address already in use" in info.value.log_tail
 
 
@@ -171,8 +172,8 @@ def test_a_firmware_that_never_sends_a_servo_packet_times_out(tmp_path: Path) ->
     firmware = ardupilot.SITL(directory=str(fake_ardupilot(tmp_path, "silent")), start_timeout=1.5)
     with pytest.raises(mcs.NodeStartError) as info:
         ardupilot.Copter(firmware=firmware).start()
-    assert "sent no servo packet to its simulator" in str(info.value)
-    assert "within 1.5 s" in str(info.value)
+    assert "did not send a servo packet to its simulator" in str(info.value)
+    assert "start-up limit of 1.5 s" in str(info.value)
     assert "waiting for nothing" in info.value.log_tail
 
 
@@ -204,7 +205,7 @@ def test_the_link_carries_mavlink_both_ways_and_strangers_are_ignored(tmp_path: 
 
     simulator.add(mcs.InProcessComponent(Sender, "sender"))
     with simulator.start() as simulation:
-        bridge = simulation.firmware._autopilot.bridge
+        bridge = simulation.firmware.firmware_nodes.bridge
         assert bridge is not None
         simulation.advance(0.2)
         # A stranger's servo packets and a stranger's MAVLink client change nothing.
@@ -238,10 +239,12 @@ def test_stopping_leaves_nothing_behind(tmp_path: Path) -> None:
     simulator = ardupilot.Copter(firmware_dir=str(fake_ardupilot(tmp_path, "climb")))
     simulation = simulator.start()
     simulation.advance(0.1)
-    node = simulation.firmware._autopilot
-    bridge = node.bridge
+    node = simulation.firmware.firmware_nodes
+    bridge, program, pid = node.bridge, node.program, node.pid
     assert bridge is not None
-    pid, port = node.process.pid, bridge.physics_port
+    assert program is not None
+    assert pid is not None
+    port = bridge.physics_port
     simulation.stop()
     simulation.stop()  # idempotent
     with pytest.raises(ProcessLookupError):
@@ -249,9 +252,9 @@ def test_stopping_leaves_nothing_behind(tmp_path: Path) -> None:
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as again:
         again.bind(("127.0.0.1", port))
     deadline = time.monotonic() + 5
-    while node.process.poll() is None and time.monotonic() < deadline:
+    while program.poll() is None and time.monotonic() < deadline:
         time.sleep(0.05)
-    assert node.process.poll() is not None
+    assert program.poll() is not None
 
 
 def test_only_the_firmwares_own_sockets_are_answered() -> None:
@@ -295,7 +298,7 @@ def test_arducopter_does_not_outlive_a_killed_simulation(tmp_path: Path) -> None
         "import sys, time, multicosim.ardupilot as a\n"
         f"sim = a.Copter(firmware_dir={str(directory)!r}).start()\n"
         "sim.advance(0.1)\n"
-        "print(sim.firmware._autopilot.process.pid, flush=True)\n"
+        "print(sim.firmware.firmware_nodes.pid, flush=True)\n"
         "time.sleep(120)\n"
     )
     host = subprocess.Popen(

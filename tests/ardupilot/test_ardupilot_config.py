@@ -102,8 +102,8 @@ def test_the_world_step_must_divide_the_physics_frame(tmp_path: Path) -> None:
     assert world.world.period == pytest.approx(0.0025)
 
 
-def test_an_image_runs_on_the_docker_backend_only() -> None:
-    with pytest.raises(mcs.ConfigurationError, match="backend='docker'"):
+def test_an_image_runs_in_the_docker_placement_only() -> None:
+    with pytest.raises(mcs.ConfigurationError, match="placement='docker'"):
         ardupilot.Copter(image="multicosim/ardupilot-sitl:0.1.0")
 
 

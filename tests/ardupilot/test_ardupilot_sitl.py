@@ -22,7 +22,7 @@ import multicosim as mcs
 import multicosim.ardupilot as ardupilot
 from multicosim.ardupilot._bridge import process_ports
 from multicosim.core.geo import LocalProjection
-from multicosim.docker import ContainerSimulation
+from multicosim.docker import ContainerNode, ContainerSimulation
 
 pytestmark = pytest.mark.usefixtures("no_leaks")
 
@@ -76,7 +76,8 @@ def test_arducopter_flies_a_mission_deaf_to_rc_input_and_leaves_its_dataflash_lo
 
     simulator.add(mcs.InProcessComponent(Hostile, "hostile"))
     with sock, simulator.start() as simulation:
-        pid = simulation.firmware._autopilot.process.pid
+        pid = simulation.firmware.firmware_nodes.pid
+        assert pid is not None
         target["ports"] = sorted(p for proto, p in process_ports(pid) if proto == "udp")
         home = simulation.home
         result = simulation.firmware.send(short_flight(home))
@@ -121,8 +122,10 @@ def test_arducopter_listens_on_no_port_and_stops_cleanly(ardupilot_dir: str) -> 
         # Past ArduCopter's setup (it waits 2 s for the RC input it ignores): from there on it
         # handles SIGTERM, finishing its log.
         simulation.advance(5.0)
-        autopilot = simulation.firmware._autopilot
-        pid, instance = autopilot.process.pid, simulation.firmware.instance
+        autopilot = simulation.firmware.firmware_nodes
+        program, pid, instance = autopilot.program, autopilot.pid, simulation.firmware.instance
+        assert program is not None
+        assert pid is not None
         assert listening(pid) == []
         ports = process_ports(pid)
         well_known = {5760 + 10 * instance + k for k in range(4)} | {5501 + 10 * instance}
@@ -132,7 +135,7 @@ def test_arducopter_listens_on_no_port_and_stops_cleanly(ardupilot_dir: str) -> 
         assert ("tcp", autopilot.bridge.mavlink_port) not in ports
     finally:
         simulation.stop()
-    assert autopilot.process.poll() == 0, "ArduCopter did not exit on SIGTERM"
+    assert program.poll() == 0, "ArduCopter did not exit on SIGTERM"
     with pytest.raises(ProcessLookupError):
         os.kill(pid, 0)
 
@@ -143,7 +146,7 @@ def test_two_arducopters_fly_side_by_side(ardupilot_dir: str) -> None:
         ardupilot.Copter(fidelity="medium", firmware_dir=ardupilot_dir, seed=2).start() as two,
     ):
         instances = {one.firmware.instance, two.firmware.instance}
-        workdirs = {sim.firmware._autopilot.rootfs for sim in (one, two)}
+        workdirs = {sim.firmware.firmware_nodes.workdir for sim in (one, two)}
         results = [sim.firmware.send(short_flight(sim.home)) for sim in (one, two)]
         # Each wrote its parameters and its log in its own working directory.
         for workdir in workdirs:
@@ -172,7 +175,9 @@ def test_arducopter_dying_mid_flight_is_reported_with_its_output(ardupilot_dir: 
 
     simulator.add(mcs.InProcessComponent(KillAt, "killer"))
     with simulator.start() as simulation:
-        victim["pid"] = simulation.firmware._autopilot.process.pid
+        pid = simulation.firmware.firmware_nodes.pid
+        assert pid is not None
+        victim["pid"] = pid
         with pytest.raises(mcs.NodeCrashedError) as info:
             simulation.firmware.send(short_flight(simulation.home))
     assert info.value.name == "ardupilot"
@@ -183,10 +188,10 @@ def test_arducopter_dying_mid_flight_is_reported_with_its_output(ardupilot_dir: 
 def test_arducopter_flies_in_a_container_on_the_simulation_network(
     ardupilot_dir: str, mcs_runtime_image: str
 ) -> None:
-    simulator = ardupilot.Copter(fidelity="medium", firmware_dir=ardupilot_dir, backend="docker")
+    simulator = ardupilot.Copter(fidelity="medium", firmware_dir=ardupilot_dir, placement="docker")
     with simulator.start() as simulation:
-        container = simulation.firmware.container
-        assert container is not None
+        container = simulation.firmware.firmware_nodes.program
+        assert isinstance(container, ContainerNode)
         container.container.reload()
         attrs = container.container.attrs
         result = simulation.firmware.send(short_flight(simulation.home))

@@ -78,7 +78,7 @@ def run(
     duration: float = 2.0,
     seed: int = 0,
     beside: Any = None,
-    process: bool = False,
+    placement: str = "in-process",
 ) -> list[Any]:
     """The rover positions the sink received through an injector with ``models``
     (``beside``: a participant factory added before the injector)."""
@@ -95,18 +95,18 @@ def run(
         period=PERIOD,
         models=tuple(models),
     )
-    simulator.add(attacks.InjectorComponent(config, process=process))
+    simulator.add(attacks.InjectorComponent(config, placement=placement))
     simulator.add(mcs.InProcessComponent(sink, name="sink"))
     with simulator.start() as simulation:
         simulation.advance(duration)
     return sink.received
 
 
-@pytest.mark.parametrize("process", [False, True])
-def test_a_stream_adds_what_another_component_publishes(process: bool) -> None:
+@pytest.mark.parametrize("placement", ["in-process", "process"])
+def test_a_stream_adds_what_another_component_publishes(placement: str) -> None:
     models: list[attacks.Model] = [attacks.Stream(topic="env", scale=2.0, end=1.5)]
     received = dict(
-        run(models, beside=lambda: Environment(lambda t: [t, -t, 0.0]), process=process)
+        run(models, beside=lambda: Environment(lambda t: [t, -t, 0.0]), placement=placement)
     )
     assert (received[0.2].x, received[0.2].y) == (1.0, 2.0)  # nothing published yet
     assert received[0.5].x == pytest.approx(1.0 + 2 * 0.5)  # published in the same instant
@@ -200,11 +200,11 @@ def test_injector_runs_the_same_as_a_process() -> None:
         models=tuple(models),
     )
     results = []
-    for process in (False, True):
+    for placement in ("in-process", "process"):
         sink = Sink()
         simulator = mcs.ProcessSimulator(seed=5)
         simulator.add(mcs.InProcessComponent(Source, name="source"))
-        simulator.add(attacks.InjectorComponent(config, process=process))
+        simulator.add(attacks.InjectorComponent(config, placement=placement))
         simulator.add(mcs.InProcessComponent(sink, "sink"))
         with simulator.start() as simulation:
             simulation.advance(2.0)

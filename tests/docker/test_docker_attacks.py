@@ -1,8 +1,6 @@
-"""The sensor injector as a container: the same attack gives the same run on both backends."""
+"""The sensor injector as a container: the same attack gives the same run in every placement."""
 
 from __future__ import annotations
-
-import pytest
 
 import multicosim.attacks as attacks
 import multicosim.rover as rover
@@ -10,8 +8,8 @@ import multicosim.rover as rover
 MISSION = rover.Mission(speed=3.0, wait=1.0, distance=5.0, final_distance=5.0)
 
 
-def _run(backend: str) -> rover.Trajectory:
-    simulator = rover.Rover(fidelity="low", backend=backend)  # type: ignore[arg-type]
+def _run(placement: str) -> rover.Trajectory:
+    simulator = rover.Rover(fidelity="low", placement=placement)
     component = attacks.inject(
         simulator,
         "gps",
@@ -23,8 +21,6 @@ def _run(backend: str) -> rover.Trajectory:
 
 
 def test_injector_container_corrupts_like_the_in_process_one(image: str) -> None:
-    if "docker" not in rover.BACKENDS:  # pragma: no cover - until the rover runs in Docker
-        pytest.skip("the rover scenario has no Docker backend yet (InjectorComponent.container)")
     in_docker = _run("docker")
     assert in_docker.completed, in_docker.reason
-    assert in_docker == _run("process")
+    assert in_docker == _run("in-process")

@@ -1,4 +1,4 @@
-"""The rover and PX4 scenarios on containers: the paper's listing 2, backends that agree."""
+"""The rover and PX4 scenarios on containers: the paper's listing 2, placements that agree."""
 
 from __future__ import annotations
 
@@ -56,7 +56,7 @@ def test_paper_listing_2_rover_with_a_firmware_container(image: str) -> None:
 
 
 def test_rover_runs_world_and_controller_as_containers(engine: Any, image: str, ours: Any) -> None:
-    with rover.Rover(fidelity="high", backend="docker", seed=2).start() as simulation:
+    with rover.Rover(fidelity="high", placement="docker", seed=2).start() as simulation:
         world, controller = simulation.world, simulation.controller
         assert isinstance(world, ContainerNode)
         assert isinstance(controller, ContainerFirmwareNode)
@@ -77,7 +77,7 @@ def test_rover_runs_world_and_controller_as_containers(engine: Any, image: str, 
 
 
 def test_px4_runs_world_and_autopilot_as_containers(engine: Any, image: str, ours: Any) -> None:
-    simulator = px4.PX4(fidelity="high", backend="docker", seed=3)
+    simulator = px4.PX4(fidelity="high", placement="docker", seed=3)
     assert simulator.world == px4.HIGH_FIDELITY_WORLD
     assert simulator.wire == "mavlink"
     with simulator.start() as simulation:
@@ -100,8 +100,8 @@ def test_rover_same_seed_same_trajectory_on_process_and_docker(
     engine: Any, image: str, fidelity: rover.Fidelity
 ) -> None:
     runs = []
-    for backend in rover.BACKENDS:
-        with rover.Rover(fidelity=fidelity, backend=backend, seed=11).start() as simulation:
+    for placement in (None, "docker"):  # the fidelity's default placement, and containers
+        with rover.Rover(fidelity=fidelity, placement=placement, seed=11).start() as simulation:
             runs.append(simulation.controller.send(SHORT_MISSION))
     assert runs[0].completed, runs[0].reason
     assert runs[0] == runs[1]
@@ -112,31 +112,31 @@ def test_px4_same_seed_same_flight_on_process_and_docker(
     engine: Any, image: str, fidelity: px4.Fidelity
 ) -> None:
     results = []
-    for backend in px4.BACKENDS:
-        simulator = px4.PX4(fidelity=fidelity, backend=backend, seed=12)
+    for placement in (None, "docker"):  # the fidelity's default placement, and containers
+        simulator = px4.PX4(fidelity=fidelity, placement=placement, seed=12)
         with simulator.start() as simulation:
             results.append(simulation.firmware.send(HOLD))
     assert results[0].completed, results[0].reason
     assert results[0] == results[1]
 
 
-def test_px4_components_in_containers_check_their_image_first(engine: Any) -> None:
+def test_px4_components_in_containers_check_their_image_first(engine: Any, image: str) -> None:
     sim = ContainerSimulator()
-    sim.add(px4.WorldComponent(px4.MuJoCo(), "medium", image="multicosim/missing:0"))
+    sim.add(px4.WorldComponent(px4.MuJoCo(), "medium", placement="docker"))
+    sim.add(ContainerComponent("multicosim/missing:0", ["true"], name="missing"))
     with pytest.raises(ImageMissingError, match="multicosim/missing:0"):
         sim.start()
-    # A container needs the simulation's network: not on the process backend.
+    # A container needs the simulation's network: a simulator of another placement refuses it.
     local = mcs.ProcessSimulator()
-    local.add(px4.WorldComponent(px4.MuJoCo(), "medium", image="multicosim/missing:0"))
-    with pytest.raises(mcs.ConfigurationError, match="ContainerSimulator") as info:
-        local.start()
-    assert info.value.field == "image"
+    with pytest.raises(mcs.ConfigurationError, match="'docker' placement") as info:
+        local.add(px4.WorldComponent(px4.MuJoCo(), "medium", placement="docker"))
+    assert info.value.field == "component"
 
 
 @pytest.mark.parametrize("make", [rover.Rover, px4.PX4])
-def test_process_backend_refuses_container_components(make: Any) -> None:
-    simulator = make(fidelity="medium", backend="process")
-    with pytest.raises(mcs.ConfigurationError, match="backend='docker'") as info:
+def test_a_local_placement_refuses_container_components(make: Any) -> None:
+    simulator = make(fidelity="medium", placement="process")
+    with pytest.raises(mcs.ConfigurationError, match="'docker' placement") as info:
         simulator.add(ContainerComponent("multicosim/runtime:0", "true", name="extra"))
     assert info.value.field == "component"
 
@@ -154,7 +154,7 @@ def test_docker_scenarios_take_in_process_components(engine: Any, image: str, ma
         def step(self, ctx: mcs.StepContext) -> None:
             seen.append(ctx.time)
 
-    simulator = make(fidelity="low", backend="docker")
+    simulator = make(fidelity="low", placement="docker")
     simulator.add(mcs.InProcessComponent(Probe, name="probe"))
     with simulator.start() as simulation:
         simulation.advance(1.0)
@@ -182,7 +182,7 @@ def test_px4(px4_simulation):
 def test_fixtures_run_the_scenarios_on_containers(pytester: pytest.Pytester, image: str) -> None:
     pytester.makepyfile(test_suite=FIXTURE_SUITE)
     result = pytester.runpytest(
-        "--mcs-backend=docker", "--mcs-fidelity=low,high", "-p", "no:cacheprovider"
+        "--mcs-placement=docker", "--mcs-fidelity=low,high", "-p", "no:cacheprovider"
     )
     result.assert_outcomes(passed=4)
 
@@ -193,7 +193,7 @@ def test_fixtures_skip_without_an_engine_unless_required(
     monkeypatch.setenv("DOCKER_HOST", f"unix://{tmp_path}/no-engine.sock")
     monkeypatch.delenv("MCS_REQUIRE_DOCKER", raising=False)
     pytester.makepyfile(test_suite=FIXTURE_SUITE)
-    args = ("--mcs-backend=docker", "-rs", "-p", "no:cacheprovider")
+    args = ("--mcs-placement=docker", "-rs", "-p", "no:cacheprovider")
     result = pytester.runpytest(*args)
     result.assert_outcomes(skipped=2)
     # One short line: where no engine answers; how to start one is in the docs.

@@ -26,10 +26,10 @@ CRASH = 0.0  # a container's exit is seen at the next liveness check
 def simulator(*extra: Any) -> tuple[ContainerSimulator, mcs.NodeId[Any], mcs.NodeId[Any]]:
     """The rover world and controller as containers, ``extra`` between them."""
     sim = ContainerSimulator(seed=1, step_timeout=STEP_TIMEOUT)
-    world = sim.add(rover.world_component("medium", backend="docker"))
+    world = sim.add(rover.world_component("medium", placement="docker"))
     for component in extra:
         sim.add(component)
-    return sim, world, sim.add(rover.controller_component("medium", backend="docker"))
+    return sim, world, sim.add(rover.controller_component("medium", placement="docker"))
 
 
 def docker(*args: str) -> None:

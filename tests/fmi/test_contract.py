@@ -199,6 +199,6 @@ def test_compile_builds_the_binary_from_the_sources(reference_fmus: Path, tmp_pa
 def test_nothing_starts_for_a_bad_configuration(ball: Path, no_leaks: None) -> None:
     simulator = mcs.ProcessSimulator()
     with pytest.raises(mcs.ConfigurationError):
-        simulator.add(fmi.FMU(ball, where="process", inputs={"x": "y"}))
-    with pytest.raises(mcs.ConfigurationError, match="where="):
-        fmi.FMU(ball, where="remote")  # type: ignore[arg-type]
+        simulator.add(fmi.FMU(ball, placement="process", inputs={"x": "y"}))
+    with pytest.raises(mcs.ConfigurationError, match="placement="):
+        fmi.FMU(ball, placement="remote")

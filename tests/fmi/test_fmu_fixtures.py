@@ -16,6 +16,8 @@ import jsonschema
 import pytest
 from mcap.reader import make_reader
 
+from multicosim.placement import default_placement
+
 SUITE = """
 import os
 
@@ -47,7 +49,7 @@ def test_the_logging_fmu(fmu):
 @pytest.mark.fidelity("low", "medium")
 def test_where_the_fmus_run(fmu, mcs_fidelity, reference_fmus):
     component = fmu(reference_fmus / "fmi2" / "Dahlquist.fmu")
-    assert component.where == {"low": "in-process", "medium": "process"}[mcs_fidelity]
+    assert component.placement.name == {"low": "in-process", "medium": "process"}[mcs_fidelity]
     result = fmu.simulate(reference_fmus / "fmi2" / "Dahlquist.fmu")
     Requirement("always (x >= 0)").check(result)
 """
@@ -102,7 +104,9 @@ def _read(trace: Path) -> tuple[dict[str, Any], dict[str, list[Any]]]:
 
 
 def _artifacts(path: Path, test: str) -> Path:
-    return path / "arts" / f"test_fmus.py_{test}" / "seed-0-process"
+    # Each fidelity's default placement: in-process at low, local processes above.
+    placement = default_placement("low" if test.endswith("_low") else "medium")
+    return path / "arts" / f"test_fmus.py_{test}" / f"seed-0-{placement}"
 
 
 @pytest.mark.parametrize("level", ["low", "medium"])

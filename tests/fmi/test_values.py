@@ -77,7 +77,7 @@ class Sink:
 )
 @pytest.mark.parametrize("where", ["in-process", "process"])
 def test_values_of_every_type_pass_through_the_fmu(
-    reference_fmus: Path, version: str, values: dict[str, Any], where: fmi.Where
+    reference_fmus: Path, version: str, values: dict[str, Any], where: str
 ) -> None:
     outputs = {name: name.replace("input", "output") for name in values}
     component = fmi.FMU(
@@ -86,7 +86,7 @@ def test_values_of_every_type_pass_through_the_fmu(
         period=0.1,
         inputs={name: f"in/{name}" for name in values},
         outputs={out: f"out/{name}" for name, out in outputs.items()},
-        where=where,
+        placement=where,
     )
     simulator = mcs.ProcessSimulator()
     simulator.add(mcs.InProcessComponent(lambda: Source(values), "source"))

@@ -29,9 +29,9 @@ def _run(component: fmi.FMU, simulator: object | None = None) -> tuple[object, P
 
 
 @pytest.mark.parametrize("where", ["in-process", "process"])
-def test_an_fmu_runs_where_asked(reference_fmus: Path, where: fmi.Where, no_leaks: None) -> None:
+def test_an_fmu_runs_where_asked(reference_fmus: Path, where: str, no_leaks: None) -> None:
     path = reference_fmus / "fmi3" / "VanDerPol.fmu"
-    result, run_dir = _run(fmi.FMU(path, name="vdp", where=where, stop_time=STOP))
+    result, run_dir = _run(fmi.FMU(path, name="vdp", placement=where, stop_time=STOP))
     reference = fmpy.simulate_fmu(str(path), stop_time=STOP, output_interval=0.01)
     np.testing.assert_array_equal(result["x0"], reference["x0"])  # type: ignore[index]
     assert not run_dir.exists()  # extracted files and logs went with the run
@@ -43,7 +43,7 @@ def test_an_fmu_runs_in_a_container(reference_fmus: Path, mcs_runtime_image: str
 
     path = reference_fmus / "fmi2" / "BouncingBall.fmu"
     simulator = ContainerSimulator()
-    node_id = simulator.add(fmi.FMU(path, name="ball", where="container", stop_time=STOP))
+    node_id = simulator.add(fmi.FMU(path, name="ball", placement="docker", stop_time=STOP))
     with simulator.start() as simulation:
         node = simulation.get(node_id)
         assert [c.name for c in simulation.containers()] == ["ball"]
@@ -97,7 +97,7 @@ def test_the_error_names_the_simulated_time_and_the_fmus(
 def test_a_failing_step_in_a_process_is_a_crash_with_the_error(
     faulty_fmu: Callable[[str], Path], no_leaks: None
 ) -> None:
-    component = fmi.FMU(faulty_fmu("error"), name="dahlquist", period=0.1, where="process")
+    component = fmi.FMU(faulty_fmu("error"), name="dahlquist", period=0.1, placement="process")
     with pytest.raises(mcs.NodeCrashedError) as info:
         _run(component)
     error = info.value
@@ -110,7 +110,7 @@ def test_a_failing_step_in_a_process_is_a_crash_with_the_error(
 def test_an_fmu_that_aborts_is_a_crash_not_a_dead_test_process(
     faulty_fmu: Callable[[str], Path], no_leaks: None
 ) -> None:
-    component = fmi.FMU(faulty_fmu("abort"), name="dahlquist", period=0.1, where="process")
+    component = fmi.FMU(faulty_fmu("abort"), name="dahlquist", period=0.1, placement="process")
     simulator = mcs.ProcessSimulator()
     simulator.add(component)
     simulation = simulator.start()
@@ -134,7 +134,7 @@ def test_an_fmu_that_aborts_in_a_container(
     from multicosim.docker import ContainerSimulator
     from multicosim.docker.engine import LABEL_RUN, client
 
-    component = fmi.FMU(faulty_fmu("abort"), name="dahlquist", period=0.1, where="container")
+    component = fmi.FMU(faulty_fmu("abort"), name="dahlquist", period=0.1, placement="docker")
     simulator = ContainerSimulator()
     simulator.add(component)
     simulation = simulator.start()
@@ -152,8 +152,8 @@ def test_an_fmu_that_aborts_in_a_container(
 
 def test_a_container_fmu_needs_a_container_simulator(reference_fmus: Path) -> None:
     simulator = mcs.ProcessSimulator()
-    simulator.add(fmi.FMU(reference_fmus / "fmi2" / "Dahlquist.fmu", where="container"))
-    with pytest.raises(mcs.ConfigurationError, match="a ContainerSimulator to run in"):
+    simulator.add(fmi.FMU(reference_fmus / "fmi2" / "Dahlquist.fmu", placement="docker"))
+    with pytest.raises(mcs.ConfigurationError, match="a simulator of the docker placement"):
         simulator.start()
 
 

@@ -67,7 +67,7 @@ def run(seed: int, models: Sequence[attacks.Model] | None = None) -> Run:
             period=cartpole.PERIOD,
             models=tuple(models),
         )
-        simulator.add(attacks.InjectorComponent(config, process=True))
+        simulator.add(attacks.InjectorComponent(config, placement="process"))
     node_id = simulator.add(
         mcs.ProcessFirmwareComponent(
             "python -m multicosim serve cartpole:balance --port {port}",

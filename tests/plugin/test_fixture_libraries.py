@@ -54,7 +54,7 @@ def test_a_library_of_another_package_is_loaded(pytester: pytest.Pytester) -> No
     result = pytester.runpytest_subprocess()
     result.assert_outcomes(passed=1, failed=2)
     # Its fixtures are ours: a test using one gets the header line and the report section.
-    result.stdout.fnmatch_lines(["multicosim: fidelity=low backend=process seed=0 *"])
+    result.stdout.fnmatch_lines(["multicosim: fidelity=low placement=default seed=0 *"])
     assert result.stdout.str().count("- multicosim -") == 1
     result.stdout.fnmatch_lines(["verdict: AssertionError: the boat is too slow*"])
 

@@ -15,7 +15,8 @@ import pytest
 from mcs_programs import process_gone
 from plugin_helpers import write_ini
 
-from multicosim.core.fidelity import BACKENDS, FIDELITIES
+from multicosim.core.fidelity import FIDELITIES
+from multicosim.placement import placement_names
 from pytest_multicosim.options import KEEP_TRACES
 
 PYTEST = f"{shlex.quote(sys.executable)} -m pytest"
@@ -26,10 +27,10 @@ PYTEST = f"{shlex.quote(sys.executable)} -m pytest"
 SETTINGS_PROBE = """
 import json
 
-def test_probe(mcs_settings, mcs_backend, mcs_seed, pytestconfig):
+def test_probe(mcs_settings, mcs_seed, pytestconfig):
     seen = {
         "fidelity": list(mcs_settings.fidelity),
-        "backend": mcs_backend,
+        "placement": mcs_settings.placement,
         "seed": mcs_seed,
         "artifacts": str(mcs_settings.artifacts),
         "keep_traces": mcs_settings.keep_traces,
@@ -51,7 +52,7 @@ def test_defaults(pytester: pytest.Pytester) -> None:
     seen = probe(pytester)
     assert seen == {
         "fidelity": ["low"],
-        "backend": "process",
+        "placement": None,
         "seed": 0,
         "artifacts": str(pytester.path / "mcs-artifacts"),
         "keep_traces": "failed",
@@ -62,7 +63,8 @@ OPTION_CASES = [
     # (option, value, field, expected value seen by the fixtures)
     ("mcs_fidelity", "medium", "fidelity", ["medium"]),
     ("mcs_fidelity", "high, low,high", "fidelity", ["high", "low"]),
-    ("mcs_backend", "docker", "backend", "docker"),
+    ("mcs_placement", "docker", "placement", "docker"),
+    ("mcs_placement", "process", "placement", "process"),
     ("mcs_seed", "12345", "seed", 12345),
     ("mcs_keep_traces", "all", "keep_traces", "all"),
     ("mcs_keep_traces", "none", "keep_traces", "none"),
@@ -86,7 +88,7 @@ def test_command_line_wins_over_ini(pytester: pytest.Pytester) -> None:
     write_ini(
         pytester,
         mcs_fidelity="high",
-        mcs_backend="docker",
+        mcs_placement="docker",
         mcs_seed="5",
         mcs_keep_traces="none",
         mcs_artifacts="from-ini",
@@ -95,14 +97,14 @@ def test_command_line_wins_over_ini(pytester: pytest.Pytester) -> None:
     seen = probe(
         pytester,
         "--mcs-fidelity=low",
-        "--mcs-backend=process",
+        "--mcs-placement=process",
         "--mcs-seed=6",
         "--mcs-keep-traces=all",
         "--mcs-artifacts=from-cli",
     )
     assert seen == {
         "fidelity": ["low"],
-        "backend": "process",
+        "placement": "process",
         "seed": 6,
         "artifacts": str(pytester.path / "from-cli"),
         "keep_traces": "all",
@@ -138,7 +140,11 @@ BAD_VALUES = [
     ("mcs_fidelity", ",", "allowed: low, medium, high (or a comma list of them)"),
     ("mcs_fidelity", "low,,medium", "allowed: low, medium, high (or a comma list of them)"),
     ("mcs_fidelity", "low,", "allowed: low, medium, high (or a comma list of them)"),
-    ("mcs_backend", "kubernetes", "allowed: process, docker"),
+    (
+        "mcs_placement",
+        "kubernetes",
+        f"allowed: {', '.join(placement_names())} (the 'multicosim.placements' entry points)",
+    ),
     ("mcs_seed", "-1", "allowed: a non-negative integer"),
     ("mcs_seed", "lucky", "allowed: a non-negative integer"),
     ("mcs_keep_traces", "some", "allowed: failed, all, none"),
@@ -173,16 +179,17 @@ def test_allowed_values_match_the_help(pytester: pytest.Pytester) -> None:
         [
             "multicosim co-simulation:",
             "*--mcs-fidelity=MCS_FIDELITY*",
-            "*--mcs-backend=MCS_BACKEND*",
+            "*--mcs-placement=MCS_PLACEMENT*",
             "*--mcs-seed=MCS_SEED*",
             "*--mcs-artifacts=MCS_ARTIFACTS*",
             "*--mcs-keep-traces=MCS_KEEP_TRACES*",
         ]
     )
-    for name in ("mcs_fidelity", "mcs_backend", "mcs_seed", "mcs_artifacts", "mcs_keep_traces"):
+    for name in ("mcs_fidelity", "mcs_placement", "mcs_seed", "mcs_artifacts", "mcs_keep_traces"):
         result.stdout.fnmatch_lines([f"  {name} (string)*"])
     text = result.stdout.str()
-    assert all(level in text for level in FIDELITIES + BACKENDS + KEEP_TRACES)
+    placements = ("in-process", "process", "docker")
+    assert all(level in text for level in FIDELITIES + placements + KEEP_TRACES)
 
 
 def test_report_header(pytester: pytest.Pytester) -> None:
@@ -190,7 +197,7 @@ def test_report_header(pytester: pytest.Pytester) -> None:
     result = pytester.runpytest("--mcs-fidelity=low,high", "--mcs-seed=99")
     result.stdout.fnmatch_lines(
         [
-            "multicosim: fidelity=low,high backend=process seed=99 keep-traces=failed "
+            "multicosim: fidelity=low,high placement=default seed=99 keep-traces=failed "
             f"artifacts={pytester.path / 'mcs-artifacts'}",
         ]
     )
@@ -397,13 +404,13 @@ def test_failure_report_shows_seed_and_replay_command(pytester: pytest.Pytester)
             "*- multicosim -*",
             "verdict: AssertionError: seeded failure*",
             f"replay: {PYTEST} '{here}/test_failing.py::test_fails[[]medium[]]' --mcs-seed=31337 "
-            "--mcs-fidelity=medium --mcs-backend=process",
-            "seed 31337, fidelity medium, backend process",
+            "--mcs-fidelity=medium",
+            "seed 31337, fidelity medium, placement process",
             "*- multicosim -*",
             "verdict: AssertionError: assert \"it's [[]odd[]]\" == 'plain'*",
             f"replay: {PYTEST} *{here}/test_failing.py::test_quoted* --mcs-seed=31337 "
-            "--mcs-fidelity=low,medium *",
-            "seed 31337, fidelity low,medium, backend process",
+            "--mcs-fidelity=low,medium*",
+            "seed 31337, fidelity low,medium, placement in-process",
         ]
     )
     assert result.stdout.str().count("- multicosim -") == 2  # passing tests get no section
@@ -451,7 +458,7 @@ def test_failure_in_a_fixture_also_shows_the_seed(pytester: pytest.Pytester) -> 
         [
             "verdict: RuntimeError: setup went wrong",
             f"replay: {PYTEST} {pytester.path}/test_setup.py::test_uses_it --mcs-seed=4 *",
-            "seed 4, fidelity low, backend process",
+            "seed 4, fidelity low, placement in-process",
         ]
     )
 
@@ -473,10 +480,10 @@ def test_failure_report_shows_component_log_and_saves_it(pytester: pytest.Pytest
     result = pytester.runpytest("--mcs-artifacts=arts")
     result.assert_outcomes(failed=1)
     test_dir = pytester.path / "arts" / "test_component.py_test_component_output_low"
-    saved = test_dir / "seed-0-process" / "chatty.log"
+    saved = test_dir / "seed-0-in-process" / "chatty.log"
     result.stdout.fnmatch_lines(
         [
-            "seed 0, fidelity low, backend process",
+            "seed 0, fidelity low, placement in-process",
             f"--- chatty: last output (full log: {saved}) ---",
             "hello from the firmware",
         ]
@@ -489,7 +496,7 @@ def test_keep_traces_none_saves_nothing(pytester: pytest.Pytester) -> None:
     pytester.makepyfile(test_component=COMPONENT_FAILS)
     result = pytester.runpytest("--mcs-artifacts=arts", "--mcs-keep-traces=none")
     result.assert_outcomes(failed=1)
-    result.stdout.fnmatch_lines(["seed 0, fidelity low, backend process"])
+    result.stdout.fnmatch_lines(["seed 0, fidelity low, placement in-process"])
     assert "last output" not in result.stdout.str()
     assert not (pytester.path / "arts").exists()
 
@@ -499,13 +506,13 @@ def test_artifacts_are_kept_per_seed_and_never_stale(pytester: pytest.Pytester) 
     pytester.makepyfile(test_component=COMPONENT_FAILS)
     pytester.runpytest("--mcs-artifacts=arts", "--mcs-seed=1").assert_outcomes(failed=1)
     test_dir = pytester.path / "arts" / "test_component.py_test_component_output_low"
-    first = test_dir / "seed-1-process"
+    first = test_dir / "seed-1-in-process"
     assert {"chatty.log", "trace.mcap", "trace.layout.json"} <= {p.name for p in first.iterdir()}
     stale = first / "left-by-an-earlier-run.mcap"
     stale.write_text("old")
     # A replay with another seed writes beside the original failure's files.
     pytester.runpytest("--mcs-artifacts=arts", "--mcs-seed=2").assert_outcomes(failed=1)
-    assert (test_dir / "seed-2-process" / "trace.mcap").is_file()
+    assert (test_dir / "seed-2-in-process" / "trace.mcap").is_file()
     assert stale.exists()
     # The same seed again replaces what the earlier run left: nothing stale stays beside it.
     pytester.runpytest("--mcs-artifacts=arts", "--mcs-seed=1").assert_outcomes(failed=1)
@@ -530,7 +537,11 @@ def test_keep_traces_of_passing_tests(pytester: pytest.Pytester, keep: str, kept
     result.assert_outcomes(passed=1)
     assert "- multicosim -" not in result.stdout.str()  # a passing test gets no section
     log = (
-        pytester.path / "arts" / "test_passing.py_test_passes_low" / "seed-0-process" / "quiet.log"
+        pytester.path
+        / "arts"
+        / "test_passing.py_test_passes_low"
+        / "seed-0-in-process"
+        / "quiet.log"
     )
     assert log.exists() is kept
     if kept:

@@ -121,11 +121,9 @@ def test_generated_worlds_are_valid(world: px4.MuJoCo) -> None:
 
 def test_public_names() -> None:
     assert set(px4.__all__) == {
-        "BACKENDS",
         "FIDELITIES",
         "HIGH_FIDELITY_WORLD",
         "PX4",
-        "Backend",
         "Configuration",
         "Fidelity",
         "Gazebo",

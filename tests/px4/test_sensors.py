@@ -39,7 +39,7 @@ def _readings(seconds: float) -> tuple[list[HilGps], list[HilSensor], Any]:
             imu.extend(self.imu.messages)
 
     sim = mcs.ProcessSimulator(seed=3)
-    sim.add(WorldComponent(world, "medium", process=False))
+    sim.add(WorldComponent(world, "medium", placement="in-process"))
     sim.add(mcs.InProcessComponent(Recorder, "recorder"))
     with sim.start() as simulation:
         simulation.advance(seconds)

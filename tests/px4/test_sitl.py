@@ -108,9 +108,11 @@ def test_real_px4_does_not_fly_the_point_mass(tmp_path: Path) -> None:
         px4.PX4(fidelity="low", firmware=sitl)
 
 
-def test_an_image_runs_on_the_docker_backend_only() -> None:
-    with pytest.raises(mcs.ConfigurationError, match="backend='docker'"):
+def test_an_image_runs_in_the_docker_placement_only() -> None:
+    with pytest.raises(mcs.ConfigurationError, match="placement='docker'") as info:
         px4.PX4(fidelity="medium", firmware=px4.SITL(image="multicosim/px4-sitl:0.1.0"))
+    assert info.value.field == "firmware"
+    assert "'process'" in str(info.value)
 
 
 # -- the simulator interface -----------------------------------------------------------------
@@ -164,13 +166,14 @@ class FakeSimulatorClient(threading.Thread):
             self.error = exc
 
 
-@pytest.mark.parametrize("process", [False, True], ids=["native", "mavlink"])
-def test_bridge_runs_the_world_in_lockstep_with_a_tcp_simulator_client(process: bool) -> None:
+@pytest.mark.parametrize(("placement", "wire"), [("in-process", "native"), ("process", "mavlink")])
+def test_bridge_runs_the_world_in_lockstep_with_a_tcp_simulator_client(
+    placement: str, wire: Wire
+) -> None:
     world = px4.MuJoCo(period=0.004)
     topics = world_topics(world)
     sim = mcs.ProcessSimulator(seed=0)
-    sim.add(WorldComponent(world, "medium", process=process))
-    wire: Wire = "mavlink" if process else "native"
+    sim.add(WorldComponent(world, "medium", placement=placement))
     bridge_id = sim.add(
         mcs.InProcessComponent(
             lambda: HilTcpBridge(topics, period=world.period, port=0, wire=wire), "hil"
@@ -215,7 +218,7 @@ def test_bridge_runs_the_world_in_lockstep_with_a_tcp_simulator_client(process: 
 def test_bridge_drops_a_client_that_speaks_no_mavlink() -> None:
     world = px4.MuJoCo(period=0.004)
     sim = mcs.ProcessSimulator(seed=0)
-    sim.add(WorldComponent(world, "medium", process=False))
+    sim.add(WorldComponent(world, "medium", placement="in-process"))
     bridge_id = sim.add(
         mcs.InProcessComponent(
             lambda: HilTcpBridge(world_topics(world), period=world.period, port=0, wire="native"),
@@ -269,7 +272,7 @@ def test_px4_that_exits_at_start_is_named_with_its_exit_code_and_output(tmp_path
     assert info.value.name == "px4"
     assert info.value.exit_code == 3
     assert "no rootfs" in info.value.log_tail
-    assert "before it connected to its simulator" in str(info.value)
+    assert "before it could connect to its simulator" in str(info.value)
 
 
 def test_px4_that_never_connects_fails_after_its_start_timeout(tmp_path: Path) -> None:
@@ -278,7 +281,7 @@ def test_px4_that_never_connects_fails_after_its_start_timeout(tmp_path: Path) -
     with pytest.raises(mcs.NodeStartError) as info:
         simulator.start()
     assert "did not connect to its simulator" in str(info.value)
-    assert "within 1.5 s" in str(info.value)
+    assert "start-up limit of 1.5 s" in str(info.value)
     assert "waiting forever" in info.value.log_tail
 
 
@@ -326,7 +329,10 @@ def test_real_px4_dying_mid_flight_is_reported_with_its_output(px4_sitl: RealPX4
 
     simulator.add(mcs.InProcessComponent(KillAt, "killer"))
     with simulator.start() as simulation:
-        killer["pid"] = simulation.firmware._autopilot.process.pid  # type: ignore[attr-defined]
+        nodes = simulation.firmware.firmware_nodes
+        assert nodes is not None
+        assert nodes.pid is not None
+        killer["pid"] = nodes.pid
         with pytest.raises(mcs.NodeCrashedError) as info:
             simulation.firmware.send(px4.Configuration([wp(40, 0, 15)], time_limit=120.0))
     assert info.value.name == "px4"
@@ -340,7 +346,7 @@ def test_two_real_px4_fly_side_by_side(px4_sitl: RealPX4) -> None:
         px4.PX4(fidelity="medium", firmware=px4_sitl.sitl(), seed=1).start() as one,
         px4.PX4(fidelity="medium", firmware=px4_sitl.sitl(), seed=2).start() as two,
     ):
-        instances = {sim.firmware._autopilot.instance for sim in (one, two)}  # type: ignore[attr-defined]
+        instances = {sim.firmware.instance for sim in (one, two)}
         results = [one.firmware.send(config), two.firmware.send(config)]
     assert len(instances) == 2
     for result in results:
@@ -361,10 +367,10 @@ def test_standalone_sitl_serves_px4s_usual_ports(
         request.getfixturevalue("mcs_runtime_image")  # an engine, and images up to date
         image = px4_sitl.image
         if image is None:
-            from multicosim.docker import build_px4
+            from multicosim.px4.image import build_image
 
             assert px4_sitl.binary is not None
-            image = build_px4(px4.SITL(binary=px4_sitl.binary).bundle)
+            image = build_image(px4.SITL(binary=px4_sitl.binary).bundle)
         command += ["--px4-image", image]
     proc = subprocess.Popen(
         command,

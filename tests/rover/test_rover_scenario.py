@@ -40,7 +40,7 @@ def _distance_to_plan(trajectory: Trajectory, mission: Mission) -> float:
     ("kwargs", "field"),
     [
         ({"fidelity": "ultra"}, "fidelity"),
-        ({"backend": "kubernetes"}, "backend"),
+        ({"placement": "kubernetes"}, "placement"),
         ({"seed": -1}, "seed"),
         ({"world": {"timestep": 0.001}}, "world"),
         ({"noise": 0.1}, "noise"),
@@ -51,8 +51,8 @@ def test_invalid_rover_configuration(kwargs: dict[str, object], field: str) -> N
     with pytest.raises(mcs.ConfigurationError) as info:
         rover.Rover(**kwargs)  # type: ignore[arg-type]
     assert info.value.field == field
-    if field == "backend":
-        assert "process" in info.value.allowed
+    if field == "placement":
+        assert "'process'" in info.value.allowed  # the registered names are listed
 
 
 def test_fidelity_defaults() -> None:

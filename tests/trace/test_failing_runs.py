@@ -25,6 +25,7 @@ from independent import read_independently, validate_foxglove
 from pymavlink import mavutil
 
 from multicosim.core.geo import EARTH_RADIUS
+from multicosim.placement import default_placement
 from multicosim.trace import read_trace
 from multicosim.trace._plot import figure
 
@@ -94,7 +95,9 @@ def failing_run(
 
 
 def artifacts(path: Path, test: str) -> Path:
-    return path / "arts" / f"test_failing.py_{test}" / "seed-0-process"
+    # Each fidelity's default placement: in-process at low, local processes above.
+    placement = default_placement("low" if test.endswith("_low") else "medium")
+    return path / "arts" / f"test_failing.py_{test}" / f"seed-0-{placement}"
 
 
 CASES = [

@@ -118,7 +118,7 @@ def test_an_unrelated_suite_sees_nothing_of_multicosim(
     pytester.makepyfile(test_ours=OURS)
     result = pytester.runpytest_subprocess("--junitxml=junit.xml", "-p", "no:cacheprovider")
     result.assert_outcomes(passed=1, failed=2)
-    result.stdout.fnmatch_lines(["multicosim: fidelity=low backend=process seed=0 *"])
+    result.stdout.fnmatch_lines(["multicosim: fidelity=low placement=default seed=0 *"])
     assert result.stdout.str().count("- multicosim -") == 1
     result.stdout.fnmatch_lines(["verdict: AssertionError: a failure of ours*"])
     assert dict(properties(pytester.path / "junit.xml"))["mcs_seed"] == "0"

@@ -181,7 +181,7 @@ class Autopilot(Commander, Navigator, Failures, Commands, ParamServer, Missions,
         """One autopilot cycle: sensors, ground station, commander, navigator, control."""
         self._now = ctx.time
         for sub, native in self._subs:
-            if sub._deliveries:
+            if sub.fresh:
                 for payload in sub.messages:
                     if native:
                         self._sensor(payload)
@@ -189,10 +189,10 @@ class Autopilot(Commander, Navigator, Failures, Commands, ParamServer, Missions,
                         for m in unpack(payload):
                             self._sensor(m)
         truth = self._truth
-        if truth is not None and truth._deliveries:
+        if truth is not None and truth.fresh:
             self.truth = truth.messages[-1]
         up = self._uplink
-        if up is not None and up._deliveries:
+        if up is not None and up.fresh:
             for packet in up.messages:
                 for m in decode_frames(self.mav, packet.data):
                     self._handle(m)
