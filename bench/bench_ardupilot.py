@@ -54,7 +54,7 @@ def rover_mission() -> ardupilot.Configuration:
 
 
 def fly_ardupilot(
-    cls: type[ardupilot.Copter], sitl: ardupilot.SITL, config: ardupilot.Configuration
+    cls: type[ardupilot.ArduCopter], sitl: ardupilot.SITL, config: ardupilot.Configuration
 ) -> tuple[ardupilot.MissionResult, dict[str, Any]]:
     """One mission on ArduPilot (medium); its result and where the wall time went."""
     with cls(fidelity="medium", firmware=sitl, seed=0).start() as simulation:
@@ -120,8 +120,8 @@ def main(argv: list[str] | None = None) -> int:
     sitl = ardupilot.SITL(directory=args.ardupilot_dir, first_instance=args.first_instance)
 
     # 1. speed
-    copter, copter_speed = fly_ardupilot(ardupilot.Copter, sitl, copter_mission())
-    _, rover_speed = fly_ardupilot(ardupilot.Rover, sitl, rover_mission())
+    copter, copter_speed = fly_ardupilot(ardupilot.ArduCopter, sitl, copter_mission())
+    _, rover_speed = fly_ardupilot(ardupilot.ArduRover, sitl, rover_mission())
     speed = {"copter": copter_speed, "rover": rover_speed}
 
     # 2. side by side

@@ -100,7 +100,7 @@ def raw_mujoco(fidelity: str, simulated: float, repeat: int) -> dict[str, float]
     """Raw ``mj_step`` of the quadrotor, one lockstep period per call, hovering."""
     import mujoco
 
-    from multicosim.mavlink.airframe import NONE_IRIS
+    from multicosim.quadrotor.airframe import NONE_IRIS
 
     world = default_world(fidelity)  # type: ignore[arg-type]
     best = float("inf")

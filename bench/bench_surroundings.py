@@ -51,7 +51,7 @@ OBSTACLES = (
 WIND = Wind(speed=5.0, direction=270.0, turbulence=LIGHT)
 
 
-def worlds(fidelity: str) -> dict[str, px4.MuJoCo]:
+def worlds(fidelity: str) -> dict[str, px4.WorldConfig]:
     """The fidelity's default world, and the same with obstacles and wind."""
     plain = default_world(fidelity)  # type: ignore[arg-type]
     return {"plain": plain, "busy": dataclasses.replace(plain, obstacles=OBSTACLES, wind=WIND)}
@@ -76,7 +76,7 @@ def _children_cpu() -> dict[int, float]:
     return out
 
 
-def fly(fidelity: str, world: px4.MuJoCo) -> tuple[float, float]:
+def fly(fidelity: str, world: px4.WorldConfig) -> tuple[float, float]:
     """(CPU s, simulated s) of one mission's ``send``, with its child processes."""
     gc.collect()
     with px4.PX4(world, fidelity=fidelity, seed=0).start() as simulation:  # type: ignore[arg-type]

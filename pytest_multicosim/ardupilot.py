@@ -32,7 +32,7 @@ from .fidelity import deselect, fidelity_of
 from .simulations import tracked
 
 if TYPE_CHECKING:
-    from multicosim.ardupilot import ArduPilotSimulation, Copter, Rover
+    from multicosim.ardupilot import ArduCopter, ArduPilotSimulation, ArduRover
     from multicosim.physics import WorldConfig
 
 __all__ = [
@@ -87,7 +87,7 @@ def _simulator(
     params: dict[str, float],
     world: WorldConfig | None = None,
 ) -> Any:
-    from multicosim.ardupilot import Copter, Rover
+    from multicosim.ardupilot import ArduCopter, ArduRover
 
     if fidelity == "low":
         pytest.skip(
@@ -96,7 +96,7 @@ def _simulator(
         )
     directory = request.getfixturevalue("ardupilot_dir")
     placement = request.getfixturevalue("mcs_placement")
-    cls = Copter if vehicle == "copter" else Rover
+    cls = ArduCopter if vehicle == "copter" else ArduRover
     simulator = cls(
         world,
         fidelity=fidelity,  # type: ignore[arg-type]  # validated by the simulator
@@ -116,9 +116,9 @@ def ardupilot_copter_simulator(
     mcs_simulations: Any,
     ardupilot_params: dict[str, float],
     ardupilot_world: WorldConfig | None,
-) -> Copter:
+) -> ArduCopter:
     """An unstarted ArduCopter simulator; whatever it starts is stopped at teardown."""
-    simulator: Copter = _simulator(
+    simulator: ArduCopter = _simulator(
         request,
         "copter",
         mcs_fidelity,
@@ -131,7 +131,7 @@ def ardupilot_copter_simulator(
 
 
 @pytest.fixture
-def ardupilot_copter_simulation(ardupilot_copter_simulator: Copter) -> ArduPilotSimulation:
+def ardupilot_copter_simulation(ardupilot_copter_simulator: ArduCopter) -> ArduPilotSimulation:
     """A started ArduCopter simulation (world, ArduCopter, ground station); always stopped."""
     return ardupilot_copter_simulator.start()
 
@@ -144,9 +144,9 @@ def ardupilot_rover_simulator(
     mcs_simulations: Any,
     ardupilot_params: dict[str, float],
     ardupilot_world: WorldConfig | None,
-) -> Rover:
+) -> ArduRover:
     """An unstarted ArduRover simulator; whatever it starts is stopped at teardown."""
-    simulator: Rover = _simulator(
+    simulator: ArduRover = _simulator(
         request,
         "rover",
         mcs_fidelity,
@@ -159,7 +159,7 @@ def ardupilot_rover_simulator(
 
 
 @pytest.fixture
-def ardupilot_rover_simulation(ardupilot_rover_simulator: Rover) -> ArduPilotSimulation:
+def ardupilot_rover_simulation(ardupilot_rover_simulator: ArduRover) -> ArduPilotSimulation:
     """A started ArduRover simulation (world, ArduRover, ground station); always stopped."""
     return ardupilot_rover_simulator.start()
 

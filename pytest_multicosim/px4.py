@@ -123,7 +123,7 @@ def px4_autopilot(request: pytest.FixtureRequest) -> str:
 
 @pytest.fixture
 def px4_world() -> MuJoCo | None:
-    """The world configuration of ``px4_simulator`` (None: ``px4.MuJoCo()`` defaults)."""
+    """The world configuration of ``px4_simulator`` (None: ``px4.WorldConfig()`` defaults)."""
     return None
 
 

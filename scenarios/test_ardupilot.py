@@ -179,7 +179,7 @@ def test_rover_mission_returns_to_launch(
 
 @pytest.mark.fidelity(*LEVELS)
 def test_copter_completes_under_small_gps_noise(
-    ardupilot_copter_simulator: ardupilot.Copter, gps_noise: GpsNoise
+    ardupilot_copter_simulator: ardupilot.ArduCopter, gps_noise: GpsNoise
 ) -> None:
     gps_noise(std=0.5, drift=0.05)
     simulation = ardupilot_copter_simulator.start()
@@ -193,7 +193,7 @@ def test_copter_completes_under_small_gps_noise(
 
 @pytest.mark.fidelity(*LEVELS)
 def test_copter_gps_spoof_pulls_the_vehicle_by_its_offset(
-    ardupilot_copter_simulator: ardupilot.Copter, gps_noise: GpsNoise
+    ardupilot_copter_simulator: ardupilot.ArduCopter, gps_noise: GpsNoise
 ) -> None:
     # From t = 90 s, when it holds at the waypoint: 10 m north, ramped over 2 s.
     gps_noise(spoof=attacks.Local(north=10.0), start=90.0, ramp=2.0)
@@ -218,7 +218,7 @@ def test_copter_gps_spoof_pulls_the_vehicle_by_its_offset(
 
 @pytest.mark.fidelity(*LEVELS)
 def test_copter_gps_dropout_triggers_the_ekf_failsafe(
-    ardupilot_copter_simulator: ardupilot.Copter, gps_noise: GpsNoise
+    ardupilot_copter_simulator: ardupilot.ArduCopter, gps_noise: GpsNoise
 ) -> None:
     gps_noise(dropout=True, start=70.0, end=100.0)
     simulation = ardupilot_copter_simulator.start()

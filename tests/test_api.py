@@ -147,26 +147,6 @@ def test_the_papers_names_are_aliases() -> None:
     assert multicosim.docker.FirmwareComponent is multicosim.docker.ContainerFirmwareComponent
 
 
-@pytest.mark.parametrize(
-    ("short", "home", "name"),
-    [
-        ("multicosim.requirements", "multicosim.search.requirements", "Requirement"),
-        ("multicosim.campaign", "multicosim.search.campaign", "run_campaign"),
-        ("multicosim.falsify", "multicosim.search.falsify", "falsify"),
-        ("multicosim.taliro", "multicosim.search.taliro", "specification"),
-        ("multicosim.strategies", "multicosim.search.strategies", "FreshSimulations"),
-        ("multicosim.geo", "multicosim.core.geo", "LocalProjection"),
-        ("multicosim.mujoco", "multicosim.physics", "WorldConfig"),
-    ],
-)
-def test_the_short_module_names_are_the_same_objects(short: str, home: str, name: str) -> None:
-    import importlib
-
-    assert getattr(importlib.import_module(short), name) is getattr(
-        importlib.import_module(home), name
-    )
-
-
 FMI_EXPECTED = {
     "FMU",
     "FMUConfig",
@@ -238,7 +218,7 @@ def test_essentials_are_documented_where_help_finds_them() -> None:
     import inspect
 
     from multicosim import testing
-    from multicosim.falsify import FalsificationResult
+    from multicosim.search.falsify import FalsificationResult
 
     # The assertion a falsification test ends with, and the topic the cart listens on.
     assert "AssertionError" in str(inspect.getdoc(FalsificationResult.assert_holds))

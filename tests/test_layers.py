@@ -112,7 +112,13 @@ def test_no_file_over_the_limit() -> None:
 
 
 def test_the_world_knows_no_vehicle() -> None:
-    vehicles = ("multicosim.px4", "multicosim.rover", "multicosim.ardupilot", "multicosim.mavlink")
+    vehicles = (
+        "multicosim.px4",
+        "multicosim.rover",
+        "multicosim.ardupilot",
+        "multicosim.mavlink",
+        "multicosim.quadrotor",
+    )
     reached = {
         target
         for module in MODULES
@@ -235,3 +241,51 @@ def test_no_package_reads_another_packages_private_attributes() -> None:
         defined.setdefault(_owner(module), set()).update(_private_names_defined(module))
     offences = [line for module in MODULES for line in _private_reads(module, defined)]
     assert not offences, "private attributes of another package read:\n" + "\n".join(offences)
+
+
+# Of PX4's: its flight modes and their encoding, its ground-station procedure, its simulator
+# interface, its topics.
+_PX4_OWN = {
+    "MainMode",
+    "SubMode",
+    "Mode",
+    "encode_custom_mode",
+    "decode_custom_mode",
+    "PX4Procedure",
+    "HilTcpBridge",
+    "SIM_PORT",
+}
+
+
+def _px4_in(module: str) -> Iterator[str]:
+    """What of PX4's own ``module`` names: its modes, procedure, simulator or topics."""
+    for node in ast.walk(_tree(module)):
+        name = (
+            node.id
+            if isinstance(node, ast.Name)
+            else node.attr
+            if isinstance(node, ast.Attribute)
+            else node.name
+            if isinstance(node, ast.ClassDef | ast.FunctionDef)
+            else None
+        )
+        if name in _PX4_OWN:
+            yield f"{MODULES[module].relative_to(ROOT)}:{node.lineno} {name}"
+        if isinstance(node, ast.Constant) and isinstance(node.value, str):
+            if node.value.startswith("px4/"):
+                yield f"{MODULES[module].relative_to(ROOT)}:{node.lineno} topic {node.value!r}"
+    for name, _, line in _imports(module):
+        if (_ours(name) or "").startswith("multicosim.px4"):
+            yield f"{MODULES[module].relative_to(ROOT)}:{line} imports {name}"
+
+
+def test_the_shared_mavlink_layer_holds_nothing_of_px4s() -> None:
+    offences = [
+        found
+        for module in MODULES
+        if _owner(module) == "multicosim.mavlink"
+        for found in _px4_in(module)
+    ]
+    assert not offences, "PX4's own in multicosim.mavlink:\n" + "\n".join(offences)
+    # The check itself: PX4's package is full of what it looks for.
+    assert any(True for _ in _px4_in("multicosim.px4.procedure"))

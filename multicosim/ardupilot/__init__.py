@@ -5,7 +5,7 @@ backend, in lockstep, and is flown through the same mission API as PX4::
 
     import multicosim.ardupilot as ardupilot
 
-    simulator = ardupilot.Copter(fidelity="medium", firmware_dir="../shared/ardupilot-sitl")
+    simulator = ardupilot.ArduCopter(fidelity="medium", firmware_dir="../shared/ardupilot-sitl")
     with simulator.start() as simulation:
         home = simulation.home
         result = simulation.firmware.send(
@@ -39,9 +39,9 @@ _LAZY = {
     "ArduPilotComponent": "._simulator",
     "ArduPilotNode": "._simulator",
     "ArduPilotSimulation": "._simulator",
-    "Copter": "._simulator",
+    "ArduCopter": "._simulator",
     "Fidelity": "._simulator",
-    "Rover": "._simulator",
+    "ArduRover": "._simulator",
     "SITL": ".launch",
     "default_world": "._simulator",
 }
@@ -49,17 +49,17 @@ _LAZY = {
 __all__ = [
     "FIRMWARE_FIDELITIES",
     "SITL",
+    "ArduCopter",
     "ArduPilotComponent",
     "ArduPilotNode",
     "ArduPilotSimulation",
+    "ArduRover",
     "Configuration",
-    "Copter",
     "Fidelity",
     "FlightSample",
     "Geofence",
     "Home",
     "MissionResult",
-    "Rover",
     "Waypoint",
     "WaypointReached",
     "WorldConfig",
@@ -70,12 +70,12 @@ __all__ = [
 if TYPE_CHECKING:
     from ._simulator import (
         FIRMWARE_FIDELITIES,
+        ArduCopter,
         ArduPilotComponent,
         ArduPilotNode,
         ArduPilotSimulation,
-        Copter,
+        ArduRover,
         Fidelity,
-        Rover,
         default_world,
     )
     from .launch import SITL

@@ -42,7 +42,7 @@ import msgspec
 from ..core.errors import MulticosimError, NodeCrashedError
 from ..local import Watch, mark_reported
 from ..mavlink.hil import MavlinkPacket, Truth
-from ..mavlink.hil_bridge import RECV, FirstMavlinkClient, Lockstep
+from ..mavlink.lockstep import RECV, FirstMavlinkClient, Lockstep
 from ..runtime.context import StepContext, Subscription
 
 __all__ = [

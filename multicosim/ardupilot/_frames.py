@@ -23,7 +23,7 @@ from collections.abc import Sequence
 
 from ..core.errors import ConfigurationError
 from ..core.geo import GRAVITY
-from ..mavlink.airframe import Airframe
+from ..quadrotor.airframe import Airframe
 
 __all__ = [
     "FRAME_RATE",

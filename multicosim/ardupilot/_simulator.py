@@ -1,4 +1,4 @@
-"""The paper's API for ArduPilot: ``Copter`` and ``Rover`` Simulators and their simulation.
+"""The paper's API for ArduPilot: ``ArduCopter`` and ``ArduRover`` Simulators and their simulation.
 
 ========  ==========================================  ========================================
 fidelity  world                                       ArduPilot
@@ -55,12 +55,12 @@ if TYPE_CHECKING:
 
 __all__ = [
     "FIRMWARE_FIDELITIES",
+    "ArduCopter",
     "ArduPilotComponent",
     "ArduPilotNode",
     "ArduPilotSimulation",
-    "Copter",
+    "ArduRover",
     "Fidelity",
-    "Rover",
     "default_world",
     "frame_period",
 ]
@@ -210,7 +210,7 @@ class ArduPilotComponent:
         """The parameters ArduPilot boots with: no RC receiver (``NO_RC_RECEIVER``), the
         frame's, then ``params``, the firmware's."""
         if self.vehicle == "copter":
-            from ..mavlink.airframe import NONE_IRIS
+            from ..quadrotor.airframe import NONE_IRIS
 
             frame = copter_params(NONE_IRIS)
         else:
@@ -252,7 +252,7 @@ class ArduPilotComponent:
                 dialect="ardupilotmega",
             )
             gcs = InProcessFirmwareComponent(
-                ground_station(spec, f"{name}.gcs", self.procedure()), name=f"{name}.gcs"
+                ground_station(spec, self.procedure(), f"{name}.gcs"), name=f"{name}.gcs"
             ).start(environment)
         except BaseException:
             group.stop()
@@ -309,6 +309,7 @@ class ArduPilotSimulation(ScenarioSimulation):
 
         world = self.firmware.component.world
         return mission_trace(
+            vehicle=self.firmware.name,
             uplink=UPLINK,
             downlink=DOWNLINK,
             truth=world.topic("truth", TRUTH_TOPIC),
@@ -422,10 +423,10 @@ class _ArduPilotSimulator(Scenario[ArduPilotSimulation]):
         )
 
 
-class Copter(_ArduPilotSimulator):
+class ArduCopter(_ArduPilotSimulator):
     """ArduCopter SITL flying our quadrotor (PX4's ``none_iris`` airframe) as its quad X.
 
-    ``ardupilot.Copter(world, fidelity="medium", firmware_dir=PATH)``: ``world`` a
+    ``ardupilot.ArduCopter(world, fidelity="medium", firmware_dir=PATH)``: ``world`` a
     :class:`~multicosim.physics.WorldConfig` (None: the fidelity's, see ``default_world``),
     whose timestep must divide ArduPilot's 2.5 ms frame; ``firmware_dir`` ArduPilot SITL's
     directory (``bin/arducopter``, ``params/copter.parm``), or ``image`` (``backend="docker"``)
@@ -436,10 +437,10 @@ class Copter(_ArduPilotSimulator):
     vehicle: Vehicle = "copter"
 
 
-class Rover(_ArduPilotSimulator):
+class ArduRover(_ArduPilotSimulator):
     """ArduRover SITL driving our Ackermann rover (steering and throttle outputs).
 
-    The same arguments as :class:`Copter`; ``firmware_dir`` needs ``bin/ardurover`` and
+    The same arguments as :class:`ArduCopter`; ``firmware_dir`` needs ``bin/ardurover`` and
     ``params/rover.parm``.
     """
 

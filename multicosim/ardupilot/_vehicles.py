@@ -17,10 +17,10 @@ import mujoco
 import numpy as np
 
 from ..core.geo import LocalProjection
-from ..mavlink.airframe import NONE_IRIS, Airframe
 from ..mavlink.hil import truth
-from ..mavlink.quadrotor import QuadrotorVehicle
 from ..physics.frames import NedState, ned_state
+from ..quadrotor.airframe import NONE_IRIS, Airframe
+from ..quadrotor.vehicle import QuadrotorVehicle
 from ..rover import AXLE_HEIGHT, MAX_SPEED, MAX_STEERING
 from ..rover.body import RoverVehicle
 from ._bridge import SERVO_TOPIC, TRUTH_TOPIC, ServoOutputs

@@ -90,7 +90,7 @@ CONTAINER_WORKDIR = "/ardupilot"
 
 @dataclasses.dataclass(frozen=True, kw_only=True)
 class SITL:
-    """Real ArduPilot SITL as the firmware: ``ardupilot.Copter(firmware=SITL(...))``.
+    """Real ArduPilot SITL as the firmware: ``ardupilot.ArduCopter(firmware=SITL(...))``.
 
     ``directory`` holds ``bin/arducopter``, ``bin/ardurover`` (ArduPilot's SITL builds) and
     ``params/copter.parm``, ``params/rover.parm`` (its default parameters). ``image`` is an

@@ -100,7 +100,7 @@ def _sitl(args: argparse.Namespace) -> int:
     if args.duration is not None:
         config = msgspec.structs.replace(config, time_limit=args.duration)
     params = ardupilot.read_params(args.params) if args.params else {}
-    vehicle = ardupilot.Copter if args.vehicle == "copter" else ardupilot.Rover
+    vehicle = ardupilot.ArduCopter if args.vehicle == "copter" else ardupilot.ArduRover
     simulator = vehicle(
         fidelity="medium",
         firmware_dir=args.firmware_dir,

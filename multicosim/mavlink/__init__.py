@@ -1,16 +1,18 @@
-"""What the MAVLink autopilots share: PX4 (real and built-in) and ArduPilot.
+"""What every MAVLink autopilot shares, as MAVSDK's plugins are shared: PX4's and ArduPilot's
+scenarios build on it, and it knows neither.
 
-* :mod:`.dialect`: MAVLink's numbers (commands, frames, results, flags) and links;
-* :mod:`.hil`: the HIL messages of PX4's simulator interface and the world's ground truth;
-* :mod:`.hil_bridge`: the simulator side of PX4's ``simulator_mavlink`` (TCP 4560, lockstep),
-  whose socket handling ArduPilot's JSON bridge reuses;
-* :mod:`.sensors`, :mod:`.airframe`, :mod:`.quadrotor`: the none_iris quadrotor both autopilots
-  fly in the MuJoCo world, with its HIL sensor suite;
-* :mod:`.mission`, :mod:`.gcs`, :mod:`.node`, :mod:`.trace`: missions, the ground station that
-  flies them over MAVLink, the firmware node it drives, and their traces;
+* :mod:`.dialect`: MAVLink's numbers (commands, frames, results, flags), links and frames;
+* :mod:`.hil`: MAVLink's HIL messages (HIL_SENSOR, HIL_GPS, HIL_ACTUATOR_CONTROLS) as typed
+  payloads on topics, and the world's ground truth;
+* :mod:`.lockstep`: what a lockstep bridge to real firmware over a socket needs (the first
+  client that speaks MAVLink, the errors of a firmware that went away or silent);
+* :mod:`.mission`, :mod:`.gcs`, :mod:`.node`, :mod:`.trace`: missions, the ground station
+  that flies them over MAVLink (an autopilot's own procedure is a :class:`~.gcs.Procedure`),
+  the firmware node it drives, and their traces;
 * :mod:`.plan`, :mod:`.plan_link`, :mod:`.params`: QGroundControl plans (read, written, and
   flown item for item) and parameter files;
-* :mod:`.sitl`: launching real SITL firmware as a process or a container.
+* :mod:`.udp`: MAVLink over UDP the way SITL firmware serves it.
 
-Used by :mod:`multicosim.px4` and :mod:`multicosim.ardupilot`; it knows neither.
+PX4's modes, procedure and simulator interface are in :mod:`multicosim.px4`, ArduPilot's in
+:mod:`multicosim.ardupilot`; the quadrotor both fly in :mod:`multicosim.quadrotor`.
 """

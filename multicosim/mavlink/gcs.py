@@ -2,13 +2,13 @@
 
 It is a firmware (it drives the simulated clock while a mission flies) that talks MAVLink 2
 to the autopilot over the uplink/downlink topics exactly as QGroundControl or MAVSDK talk to
-PX4 over UDP: parameter protocol to set speeds and acceptance radius, mission protocol to
+an autopilot over UDP: parameter protocol to set speeds and acceptance radius, mission protocol to
 upload the plan, COMMAND_LONG to arm and start, telemetry to record the trajectory.
 
 The protocols are MAVLink's and shared by every autopilot; what differs between autopilots
 (flight modes, parameter names, the mission's layout, the arming and start sequence, when a
-mission counts as done) is a :class:`Procedure`: :class:`PX4Procedure` here, ArduPilot's in
-:mod:`multicosim.ardupilot._gcs`.
+mission counts as done) is a :class:`Procedure`: PX4's in :mod:`multicosim.px4.procedure`,
+ArduPilot's in :mod:`multicosim.ardupilot`.
 """
 
 from __future__ import annotations
@@ -22,15 +22,8 @@ from ..physics.obstacles import NO_OBSTACLES
 from ..runtime.context import FirmwareContext
 from ..runtime.serve import Firmware
 from .dialect import (
-    CMD_ARM_DISARM,
-    CMD_LAND,
-    CMD_MISSION_START,
     CMD_REQUEST_MESSAGE,
-    CMD_RTL,
-    CMD_TAKEOFF,
-    CMD_WAYPOINT,
     FRAME_GLOBAL_REL_INT,
-    FRAME_MISSION,
     LANDED_ON_GROUND,
     MAV_AUTOPILOT_INVALID,
     MAV_TYPE_GCS,
@@ -40,18 +33,16 @@ from .dialect import (
     PREARM_BIT,
     SEV_CRITICAL,
     decode_frames,
-    mode_label,
     new_link,
 )
 from .hil import MavlinkPacket, Truth
 from .mission import Collision, Configuration, FlightSample, MissionResult, WaypointReached
-from .plan_link import plan_items, upload_plan_areas, waypoint_indices
+from .plan_link import upload_plan_areas, waypoint_indices
 
 __all__ = [
     "GcsSpec",
     "GroundStation",
     "MissionFailed",
-    "PX4Procedure",
     "Procedure",
     "ground_station",
 ]
@@ -64,9 +55,9 @@ class GcsSpec(msgspec.Struct, frozen=True, kw_only=True):
     own messages ``common`` does not know).
     """
 
-    uplink: str = "px4/mavlink/up"
-    downlink: str = "px4/mavlink/down"
-    truth: str = "px4/truth"
+    uplink: str
+    downlink: str
+    truth: str
     period: float = 0.05
     preflight_timeout: float = 30.0
     command_timeout: float = 1.0
@@ -85,8 +76,9 @@ class Procedure:
     The ground station calls, in this order: ``prepare`` (after the first HEARTBEAT),
     waits until nothing is ``unready``, sets ``parameters``, uploads ``mission_items``, calls
     ``start`` (arm, take off, start the mission), then ``finished`` at every step until it
-    says the mission is done. Subclasses override what their autopilot does differently; the
-    defaults are PX4's.
+    says the mission is done. Subclasses say what their autopilot does; the defaults are what
+    MAVLink prescribes (pre-arm checks in SYS_STATUS, home in HOME_POSITION, the landed
+    state in EXTENDED_SYS_STATE).
     """
 
     first_waypoint = 1
@@ -130,19 +122,7 @@ class Procedure:
 
     def start(self, gs: GroundStation, config: Configuration) -> None:
         """Arm and start the uploaded mission; MissionFailed if the autopilot refuses."""
-        # PX4 checks a mission after acknowledging it and refuses to start it until then
-        # ("No valid mission"); MISSION_CURRENT's total says when it has taken it.
-        gs.wait(lambda: gs.mission_total in (-1, gs.uploaded), 5.0)
-        result = gs.command(CMD_ARM_DISARM, 1.0)
-        if result != 0:
-            raise MissionFailed("arming refused: " + gs.why(f"COMMAND_ACK result {result}"))
-        # The armed state is the HEARTBEAT's: one sent before the ACK may still be the last
-        # one seen, so wait for a heartbeat that says armed.
-        if not gs.wait(lambda: gs.armed, 3.0):
-            raise MissionFailed(gs.why("arming was acknowledged but the vehicle is not armed"))
-        result = gs.command(CMD_MISSION_START, 0.0, 0.0)
-        if result != 0:
-            raise MissionFailed("mission start refused: " + gs.why(f"result {result}"))
+        raise NotImplementedError
 
     def finished(self, gs: GroundStation, config: Configuration, waypoints_done: bool) -> bool:
         """Whether the mission is over and done (MissionFailed if it ended otherwise).
@@ -165,59 +145,13 @@ class Procedure:
         return gs.landed_state == LANDED_ON_GROUND
 
 
-class PX4Procedure(Procedure):
-    """PX4: MPC_XY_CRUISE and NAV_ACC_RAD; a takeoff item, the waypoints, land or RTL."""
-
-    def mode_label(self, heartbeat: Any) -> str:
-        """PX4's mode name (``AUTO.MISSION``) from its custom mode."""
-        return mode_label(heartbeat.custom_mode)
-
-    def parameters(self, config: Configuration) -> list[tuple[str, float]]:
-        """PX4's cruise speed and acceptance radius."""
-        return [("MPC_XY_CRUISE", config.cruise_speed), ("NAV_ACC_RAD", config.acceptance_radius)]
-
-    def mission_items(
-        self, gs: GroundStation, config: Configuration, home_lat: float, home_lon: float
-    ) -> list[Any]:
-        """Takeoff, waypoints, then land or RTL (a plan's items as they are)."""
-        if config.plan is not None:
-            return plan_items(gs, config.plan.items, 0)
-        wps = config.mission
-        takeoff = config.takeoff_alt if config.takeoff_alt is not None else wps[0].alt
-        # Where it stands: PX4 checks the first item's distance from home.
-        items = [gs.item(0, CMD_TAKEOFF, lat=home_lat, lon=home_lon, alt=takeoff)]
-        for wp in wps:
-            items.append(
-                gs.item(
-                    len(items),
-                    CMD_WAYPOINT,
-                    params=(0, config.acceptance_radius, 0, math.nan),
-                    lat=wp.lat,
-                    lon=wp.lon,
-                    alt=wp.alt,
-                )
-            )
-        last = wps[-1]
-        if config.end == "land":
-            items.append(gs.item(len(items), CMD_LAND, lat=last.lat, lon=last.lon))
-        elif config.end == "rtl":
-            # No position: PX4 refuses RTL in a global frame.
-            items.append(gs.item(len(items), CMD_RTL, frame=FRAME_MISSION, params=(0, 0, 0, 0)))
-        return items
-
-
-PX4 = PX4Procedure()
-
-
 class GroundStation:
     """A MAVLink ground station stepping on the simulated clock."""
 
-    def __init__(
-        self, ctx: FirmwareContext, spec: GcsSpec, procedure: Procedure | None = None
-    ) -> None:
+    def __init__(self, ctx: FirmwareContext, spec: GcsSpec, procedure: Procedure) -> None:
         self.ctx = ctx
         self.spec = spec
-        self.procedure = procedure or PX4
+        self.procedure = procedure
         self.mav: Any = new_link(spec.system_id, spec.component_id, spec.dialect)
         self.down = ctx.subscribe(spec.downlink, MavlinkPacket)
         self.truth = ctx.subscribe(spec.truth, Truth)
@@ -313,7 +247,7 @@ class GroundStation:
                 self.reached.append((m.seq, self.ctx.time))
         elif kind == "STATUSTEXT":
             text = m.text if isinstance(m.text, str) else m.text.decode(errors="replace")
-            text = text.rstrip("\0\t\r\n ")  # PX4 ends its event texts with a tab
+            text = text.rstrip("\0\t\r\n ")  # some autopilots end their texts with a tab
             self.texts.append(text)
             if m.severity <= SEV_CRITICAL:
                 self.critical.append(text)
@@ -534,13 +468,12 @@ class GroundStation:
 
 
 def ground_station(
-    spec: GcsSpec | None = None, name: str = "gcs", procedure: Procedure | None = None
+    spec: GcsSpec, procedure: Procedure, name: str = "gcs"
 ) -> Firmware[Configuration, MissionResult]:
     """The ground-station firmware for ``spec``: send it a Configuration, get a MissionResult.
 
-    ``procedure`` says how to fly the autopilot (default: PX4's).
+    ``procedure`` says how to fly the autopilot.
     """
-    spec = spec or GcsSpec()
 
     def handler(config: Configuration, ctx: FirmwareContext) -> MissionResult:
         return GroundStation(ctx, spec, procedure).fly(config)

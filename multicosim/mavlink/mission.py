@@ -1,4 +1,5 @@
-"""Configuration and result types of the PX4 scenario, validated on construction.
+"""A MAVLink autopilot's mission: what a ground station is told to fly and what it records,
+validated on construction (PX4's and ArduPilot's scenarios share them).
 
 Everything here is a frozen msgspec Struct: it is a message (sent to the firmware node, or
 passed as JSON to a component process) and a configuration (invalid values raise
@@ -15,7 +16,6 @@ import msgspec
 
 from ..core.errors import ConfigurationError, check_number
 from ..core.geo import Home, LocalProjection
-from ..physics.config import WorldConfig, check_sensor_topics
 from .dialect import (
     CMD_LAND,
     CMD_RTL,
@@ -33,56 +33,11 @@ __all__ = [
     "Geofence",
     "Home",
     "MissionResult",
-    "MuJoCo",
-    "Topics",
     "Waypoint",
     "WaypointReached",
-    "world_topics",
 ]
 
 MissionEnd = Literal["land", "rtl", "hold"]
-
-
-class Topics(msgspec.Struct, frozen=True):
-    """Topic names of the simulator interface; remap them to insert injectors or bridges.
-
-    The world publishes ``imu``, ``mag``, ``baro``, ``gps`` and ``truth`` (these defaults,
-    moved by ``WorldConfig.sensor_topics``) and reads ``actuators``; the autopilot reads the
-    four sensor topics and publishes ``actuators``. Giving the world and the autopilot
-    different names lets a component sit in between (for example a GPS attack reading
-    ``px4/gps`` and publishing ``px4/gps/attacked``).
-    """
-
-    imu: str = "px4/imu"
-    mag: str = "px4/mag"
-    baro: str = "px4/baro"
-    gps: str = "px4/gps"
-    actuators: str = "px4/actuators"
-    truth: str = "px4/truth"
-
-    def __post_init__(self) -> None:
-        for field in self.__struct_fields__:
-            value = getattr(self, field)
-            if not isinstance(value, str) or not value:
-                raise ConfigurationError(f"topics.{field}", value, "a non-empty topic name")
-
-
-SENSORS = ("imu", "mag", "baro", "gps", "truth")
-"""The quadrotor world's sensors (``WorldConfig.sensor_topics`` keys)."""
-
-
-def world_topics(world: WorldConfig) -> Topics:
-    """The topics a quadrotor world configured by ``world`` publishes on and reads."""
-    check_sensor_topics(world, dict.fromkeys(SENSORS, ""))
-    if not world.sensor_topics:
-        return _DEFAULT_TOPICS
-    return Topics(**{**msgspec.structs.asdict(_DEFAULT_TOPICS), **world.sensor_topics})
-
-
-_DEFAULT_TOPICS = Topics()
-
-MuJoCo = WorldConfig
-"""The PX4 scenario's world configuration (the paper's ``px4.Gazebo()``): MuJoCo's."""
 
 
 class Geofence(msgspec.Struct, frozen=True):
@@ -244,7 +199,8 @@ class FlightSample(msgspec.Struct, frozen=True, kw_only=True):
     autopilot's estimate as it last reported it; ``true_*`` are the world's truth (they
     differ when sensors lie). The ground station takes one sample per period (20 Hz at
     medium fidelity and above, 10 Hz at low).
-    ``mode`` is PX4's mode name (``AUTO.MISSION``), ``current`` the MAVLink sequence number
+    ``mode`` is the autopilot's mode name (PX4's ``AUTO.MISSION``, ArduPilot's ``AUTO``),
+    ``current`` the MAVLink sequence number
     of the current mission item (0: takeoff, 1..n: the configured waypoints, then land/RTL).
     ``clearance`` is the true 3-D distance (m) from the vehicle's body to the nearest
     obstacle, ``footprint_clearance`` the 2-D distance from its footprint to the nearest

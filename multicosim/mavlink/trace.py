@@ -1,20 +1,22 @@
 """What a trace of a MAVLink autopilot's mission shows, in channels Foxglove understands
-(PX4's and ArduPilot's scenarios use it).
+(PX4's and ArduPilot's scenarios use it). ``VEHICLE`` is the vehicle's name (``px4``,
+``ardupilot``): its channels are under it.
 
-* The MAVLink links between ground station and autopilot (``px4/mavlink/up`` and ``down``),
-  and the HIL frames between world and autopilot where they travel as MAVLink, are decoded
-  into one channel per message type (``px4/mavlink/down/ATTITUDE``, ...), each with a JSON
-  schema generated from pymavlink's message definitions. The links also go to a ``.tlog``.
-* ``px4/log``: the autopilot's STATUSTEXT as ``foxglove.Log``.
-* ``px4/pose``: the autopilot's attitude (ATTITUDE_QUATERNION, else ATTITUDE) at its estimated
-  position, as ``foxglove.PoseInFrame`` in an east-north-up ``map`` frame (FLU body).
-* ``px4/location/estimate`` (GLOBAL_POSITION_INT) and ``px4/location/truth`` (the world's
-  truth): two ``foxglove.LocationFix`` tracks; ``mcs/path/estimate`` and ``mcs/path/truth``
-  the same in metres from home, for the plot.
+* The MAVLink links between ground station and autopilot (``VEHICLE/mavlink/up`` and
+  ``down``), and the HIL frames between world and autopilot where they travel as MAVLink,
+  are decoded into one channel per message type (``VEHICLE/mavlink/down/ATTITUDE``, ...),
+  each with a JSON schema generated from pymavlink's message definitions. The links also go
+  to a ``.tlog``.
+* ``VEHICLE/log``: the autopilot's STATUSTEXT as ``foxglove.Log``.
+* ``VEHICLE/pose``: the autopilot's attitude (ATTITUDE_QUATERNION, else ATTITUDE) at its
+  estimated position, as ``foxglove.PoseInFrame`` in an east-north-up ``map`` frame (FLU body).
+* ``VEHICLE/location/estimate`` (GLOBAL_POSITION_INT) and ``VEHICLE/location/truth`` (the
+  world's truth): two ``foxglove.LocationFix`` tracks; ``mcs/path/estimate`` and
+  ``mcs/path/truth`` the same in metres from home, for the plot.
 * ``mcs/obstacles``: the world's obstacles (footprints and heights), for the plot; ``mcs/scene``
   the same as ``foxglove.SceneUpdate`` (a cube or cylinder each, in ``map``) for the 3D panel.
-* ``px4/mission``: the uploaded mission (MISSION_ITEM_INT) as ``foxglove.GeoJSON`` for the
-  Map panel, and ``mcs/plan`` for the plot.
+* ``VEHICLE/mission``: the uploaded mission (MISSION_ITEM_INT) as ``foxglove.GeoJSON`` for
+  the Map panel, and ``mcs/plan`` for the plot.
 * The layout plots each position setpoint (POSITION_TARGET_LOCAL_NED) beside the estimate.
 """
 
@@ -25,7 +27,7 @@ import inspect
 import json
 import math
 from collections.abc import Iterable, Iterator, Sequence
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 from ..core.geo import LocalProjection, quaternion_from_euler, swap_attitude_frames
 from ..physics.obstacles import Obstacle, Placed, placed
@@ -59,13 +61,31 @@ from .hil import MavlinkPacket, Truth
 if TYPE_CHECKING:
     from ..core.geo import Home
 
-__all__ = ["mavlink_message", "mavlink_schema", "mission_trace"]
+__all__ = ["Channels", "mavlink_message", "mavlink_schema", "mission_trace"]
 
-LOG_CHANNEL = "px4/log"
-POSE_CHANNEL = "px4/pose"
-ESTIMATE_FIX = "px4/location/estimate"
-TRUTH_FIX = "px4/location/truth"
-MISSION_CHANNEL = "px4/mission"
+
+class Channels(NamedTuple):
+    """A vehicle's Foxglove channels (see the module)."""
+
+    vehicle: str
+    log: str
+    pose: str
+    estimate: str
+    truth: str
+    mission: str
+
+    @classmethod
+    def of(cls, vehicle: str) -> Channels:
+        """The channels under ``vehicle``'s name."""
+        return cls(
+            vehicle,
+            f"{vehicle}/log",
+            f"{vehicle}/pose",
+            f"{vehicle}/location/estimate",
+            f"{vehicle}/location/truth",
+            f"{vehicle}/mission",
+        )
+
 
 # Obstacles in the 3D panel: the plot's brown, see-through.
 _OBSTACLE_COLOR = {"r": 0.55, "g": 0.34, "b": 0.29, "a": 0.6}
@@ -160,9 +180,11 @@ class _Links:
         uplink: str,
         downlink: str,
         home: Home,
+        channels: Channels,
         dialect_name: str = "common",
     ) -> None:
         self.topics = topics
+        self._channels = channels
         self._dialect = dialect_name
         self._uplink = uplink
         self._downlink = downlink
@@ -198,13 +220,13 @@ class _Links:
     def _downlink_message(self, kind: str, m: Any, time_ns: int) -> Iterator[Converted]:
         if kind == "STATUSTEXT":
             yield Converted(
-                LOG_CHANNEL,
+                self._channels.log,
                 LOG,
                 {
                     "timestamp": stamp(time_ns),
                     "level": _LOG_LEVEL.get(int(m.severity), 0),
                     "message": mavlink_message(m)["text"],
-                    "name": f"px4 (system {m.get_srcSystem()})",
+                    "name": f"{self._channels.vehicle} (system {m.get_srcSystem()})",
                     "file": "",
                     "line": 0,
                 },
@@ -219,7 +241,7 @@ class _Links:
         elif kind == "GLOBAL_POSITION_INT":
             lat, lon = m.lat * 1e-7, m.lon * 1e-7
             yield Converted(
-                ESTIMATE_FIX, LOCATION_FIX, fix_message(time_ns, lat, lon, m.alt * 1e-3)
+                self._channels.estimate, LOCATION_FIX, fix_message(time_ns, lat, lon, m.alt * 1e-3)
             )
             north, east = self._projection.project(lat, lon)
             point = {"east": east, "north": north, "up": m.relative_alt * 1e-3}
@@ -231,7 +253,7 @@ class _Links:
             return
         position = (local.y, local.x, -local.z)  # NED -> ENU
         yield Converted(
-            POSE_CHANNEL,
+            self._channels.pose,
             POSE_IN_FRAME,
             pose_message(time_ns, position, swap_attitude_frames(q_ned_frd)),
         )
@@ -283,7 +305,7 @@ class _Links:
             "properties": {"name": "mission", "style": {"color": "#ff7f0e", "dashArray": "6 4"}},
         }
         collection = {"type": "FeatureCollection", "features": [line, *features]}
-        yield Converted(MISSION_CHANNEL, GEOJSON, {"geojson": json.dumps(collection)})
+        yield Converted(self._channels.mission, GEOJSON, {"geojson": json.dumps(collection)})
         plan = [{"east": e, "north": n, "up": u} for e, n, u in points]
         yield Converted(PLAN_CHANNEL, PLAN, {"points": plan})
 
@@ -318,8 +340,9 @@ class _Truth:
     """The world's truth as a LocationFix track and a path in metres from home; with its
     first message, the world's obstacles (for the plot and as a 3-D scene)."""
 
-    def __init__(self, topic: str, home: Home, obstacles: Sequence[Obstacle]) -> None:
+    def __init__(self, topic: str, home: Home, obstacles: Sequence[Obstacle], channel: str) -> None:
         self.topics = (topic,)
+        self._channel = channel
         self._home_alt = home.alt
         self._obstacles = placed(obstacles, home)
 
@@ -345,7 +368,7 @@ class _Truth:
         return (
             *once,
             Converted(
-                TRUTH_FIX,
+                self._channel,
                 LOCATION_FIX,
                 fix_message(time_ns, m["lat"], m["lon"], self._home_alt + m["alt"]),
             ),
@@ -359,6 +382,7 @@ class _Truth:
 
 def mission_trace(
     *,
+    vehicle: str,
     uplink: str,
     downlink: str,
     truth: str,
@@ -370,12 +394,13 @@ def mission_trace(
 ) -> TraceOptions:
     """Trace options of a ground station's MAVLink link and the world's truth (any autopilot).
 
-    ``links`` are the MAVLink topics decoded into channels (default: the uplink and the
-    downlink); ``types`` the other topics' message types; ``obstacles`` the world's (their
-    footprints go to ``mcs/obstacles``, for the plot, their solids to ``mcs/scene``, for the
-    3D panel).
+    ``vehicle`` names the vehicle's channels (see the module); ``links`` are the MAVLink
+    topics decoded into channels (default: the uplink and the downlink); ``types`` the other
+    topics' message types; ``obstacles`` the world's (their footprints go to
+    ``mcs/obstacles``, for the plot, their solids to ``mcs/scene``, for the 3D panel).
     """
     links = links or (uplink, downlink)
+    channels = Channels.of(vehicle)
     types = {**types, truth: Truth, uplink: MavlinkPacket, downlink: MavlinkPacket}
     target = f"{downlink}/POSITION_TARGET_LOCAL_NED"
     local = f"{downlink}/LOCAL_POSITION_NED"
@@ -398,8 +423,8 @@ def mission_trace(
     return TraceOptions(
         types=types,
         converters=[
-            _Links(links, uplink, downlink, home, dialect_name),
-            _Truth(truth, home, obstacles),
+            _Links(links, uplink, downlink, home, channels, dialect_name),
+            _Truth(truth, home, obstacles, channels.truth),
         ],
         replaced=links,
         tlog=(uplink, downlink),

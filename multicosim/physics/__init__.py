@@ -6,7 +6,7 @@ hands the vehicle-specific part to a :class:`Vehicle`: any object with ``sensors
 sensor's name and default topic, which ``WorldConfig.sensor_topics`` may move), and
 ``load_model()``, ``setup(physics, ctx, topics)``, ``actuate(physics, ctx)`` and
 ``sense(physics, ctx)``. The world knows no vehicle: the shipped ones live in their own
-packages (``multicosim.rover.body``, ``multicosim.mavlink.quadrotor``), and a user's own
+packages (``multicosim.rover.body``, ``multicosim.quadrotor.vehicle``), and a user's own
 is a class in the user's own module::
 
     class Pendulum:  # a multicosim.physics.Vehicle

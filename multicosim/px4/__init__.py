@@ -4,7 +4,7 @@
 
     import multicosim.px4 as px4
 
-    world = px4.MuJoCo()                                   # the paper's px4.Gazebo()
+    world = px4.WorldConfig()                                   # the paper's px4.Gazebo()
     simulator = px4.PX4(world, fidelity="low")             # adds the world and PX4 itself
     with simulator.start() as simulation:
         result = simulation.firmware.send(
@@ -33,14 +33,14 @@ from ..mavlink.mission import (
     Geofence,
     Home,
     MissionResult,
-    MuJoCo,
-    Topics,
     Waypoint,
     WaypointReached,
 )
 from ..mavlink.params import read_params
+from ..physics.config import WorldConfig
+from ..quadrotor.topics import Topics
 
-Gazebo = MuJoCo  # the paper's name for the world configuration
+Gazebo = WorldConfig  # the paper's name for the world configuration
 
 _LAZY = {
     "Fidelity": "..core.fidelity",
@@ -69,7 +69,6 @@ __all__ = [
     "Geofence",
     "Home",
     "MissionResult",
-    "MuJoCo",
     "PX4Component",
     "PX4Node",
     "PX4Simulation",
@@ -77,6 +76,7 @@ __all__ = [
     "Waypoint",
     "WaypointReached",
     "WorldComponent",
+    "WorldConfig",
     "read_params",
     "sitl_level",
 ]

@@ -42,10 +42,10 @@ from ..mavlink.dialect import (
     MSG_HIL_STATE_QUATERNION,
     MSG_HOME_POSITION,
     MSG_PROTOCOL_VERSION,
-    Mode,
 )
 from .conformance_flight import differences as flight_differences
 from .conformance_flight import flight
+from .modes import Mode
 from .probe import Probe, int_bytes, param_name, param_value
 
 __all__ = ["PX4_VERSION", "differences", "load", "record"]

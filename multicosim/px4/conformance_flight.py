@@ -13,7 +13,8 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from ..mavlink.dialect import FRAME_GLOBAL_INT, Mode, encode_custom_mode
+from ..mavlink.dialect import FRAME_GLOBAL_INT
+from .modes import Mode, encode_custom_mode
 from .probe import Probe, int_bytes
 
 __all__ = ["TOLERANCES", "differences", "flight"]

@@ -24,9 +24,8 @@ from ..mavlink.dialect import (
     TARGET_IGNORE_VELOCITY,
     TARGET_IGNORE_YAW,
     TARGET_IGNORE_YAW_RATE,
-    Mode,
-    encode_custom_mode,
 )
+from .modes import Mode, encode_custom_mode
 
 __all__ = [
     "STALL",
@@ -229,7 +228,7 @@ class Probe:
 
     def mode(self) -> list[int]:
         """The (main, sub) mode of the autopilot's next heartbeat."""
-        from ..mavlink.dialect import decode_custom_mode
+        from .modes import decode_custom_mode
 
         return list(decode_custom_mode(self.custom_mode()))
 

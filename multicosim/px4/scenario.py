@@ -43,17 +43,14 @@ from ..local import (
 )
 from ..mavlink.gcs import GcsSpec, ground_station
 from ..mavlink.hil import Wire
-from ..mavlink.mission import (
-    Geofence,
-    Home,
-    MuJoCo,
-    Topics,
-    world_topics,
-)
+from ..mavlink.mission import Geofence, Home
 from ..mavlink.node import MissionNode
+from ..physics.config import WorldConfig
 from ..placement import ParticipantProgram, Placement, Scenario, ScenarioSimulation, resolve
 from ..placement.firmware import FirmwareNodes, ProgramNode, preflight_program
+from ..quadrotor.topics import Topics, world_topics
 from .autopilot.firmware import Autopilot, AutopilotSpec
+from .procedure import PX4Procedure
 from .sitl import SENSOR_RATE, SITL, image_of, start_sitl
 from .world import WorldSpec
 
@@ -77,15 +74,15 @@ __all__ = [
 LOW_PERIOD = 0.1  # a 10 Hz loop suffices for a point mass and keeps a minute of flight >= 1000x
 # High fidelity: the same 100 Hz lockstep, with the rigid body integrated four times finer
 # and the constraint solver given twice the iterations.
-HIGH_FIDELITY_WORLD = MuJoCo(timestep=0.0005, iterations=100)
+HIGH_FIDELITY_WORLD = WorldConfig(timestep=0.0005, iterations=100)
 
 
-def default_world(fidelity: Fidelity) -> MuJoCo:
+def default_world(fidelity: Fidelity) -> WorldConfig:
     """The world configuration a fidelity level uses unless one is given."""
-    return HIGH_FIDELITY_WORLD if fidelity == "high" else MuJoCo()
+    return HIGH_FIDELITY_WORLD if fidelity == "high" else WorldConfig()
 
 
-def sitl_period(world: MuJoCo) -> float:
+def sitl_period(world: WorldConfig) -> float:
     """The world period real PX4 gets its sensors at: the timestep multiple nearest 250 Hz."""
     steps = max(1, round(1.0 / SENSOR_RATE / world.timestep))
     return round(world.timestep * steps, 9)
@@ -107,15 +104,15 @@ class WorldComponent:
     default).
     """
 
-    world: MuJoCo = dataclasses.field(default_factory=MuJoCo)
+    world: WorldConfig = dataclasses.field(default_factory=WorldConfig)
     fidelity: Fidelity = "low"
     name: str = "world"
     placement: str | Placement | None = None
 
     def __post_init__(self) -> None:
         check_fidelity(self.fidelity)
-        if not isinstance(self.world, MuJoCo):
-            raise ConfigurationError("world", self.world, "a px4.MuJoCo configuration")
+        if not isinstance(self.world, WorldConfig):
+            raise ConfigurationError("world", self.world, "a px4.WorldConfig")
         resolve(self.placement, self.fidelity)
 
     @property
@@ -191,7 +188,7 @@ class PX4Component:
     process.
     """
 
-    world: MuJoCo = dataclasses.field(default_factory=MuJoCo)
+    world: WorldConfig = dataclasses.field(default_factory=WorldConfig)
     fidelity: Fidelity = "low"
     name: str = "px4"
     geofence: Geofence = dataclasses.field(default_factory=Geofence)
@@ -210,8 +207,8 @@ class PX4Component:
 
     def __post_init__(self) -> None:
         check_fidelity(self.fidelity)
-        if not isinstance(self.world, MuJoCo):
-            raise ConfigurationError("world", self.world, "a px4.MuJoCo configuration")
+        if not isinstance(self.world, WorldConfig):
+            raise ConfigurationError("world", self.world, "a px4.WorldConfig")
         if not isinstance(self.geofence, Geofence):
             raise ConfigurationError("geofence", self.geofence, "a px4.Geofence")
         placement = resolve(self.placement, self.fidelity)
@@ -308,7 +305,8 @@ class PX4Component:
                 **gcs,
             )
             node = InProcessFirmwareComponent(
-                ground_station(gcs_spec, f"{self.name}.gcs"), name=f"{self.name}.gcs"
+                ground_station(gcs_spec, PX4Procedure(), f"{self.name}.gcs"),
+                name=f"{self.name}.gcs",
             ).start(environment)
         except BaseException:
             autopilot.stop()
@@ -356,7 +354,7 @@ class PX4Simulation(ScenarioSimulation):
         from .trace import trace_options
 
         component = self.firmware.component
-        return trace_options(component.spec, component.world)
+        return trace_options(component.spec, component.world, component.name)
 
     def flight_logs(self) -> list[Path]:
         """Real PX4's ULog files so far (``log/**/*.ulg``; Flight Review reads them).
@@ -385,7 +383,7 @@ class PX4(Scenario[PX4Simulation]):
 
     def __init__(
         self,
-        world: MuJoCo | None = None,
+        world: WorldConfig | None = None,
         *,
         fidelity: Fidelity = "low",
         placement: str | Placement | None = None,
@@ -400,8 +398,8 @@ class PX4(Scenario[PX4Simulation]):
     ) -> None:
         check_fidelity(fidelity)
         world = world if world is not None else default_world(fidelity)
-        if not isinstance(world, MuJoCo):
-            raise ConfigurationError("world", world, "a px4.MuJoCo configuration")
+        if not isinstance(world, WorldConfig):
+            raise ConfigurationError("world", world, "a px4.WorldConfig")
         if firmware is not None and isinstance(firmware, SITL):
             world = dataclasses.replace(world, period=sitl_period(world))
         self._firmware = PX4Component(

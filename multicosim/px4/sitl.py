@@ -2,7 +2,7 @@
 
 PX4's SITL build (``px4_sitl_default``) flies our MuJoCo quadrotor the way it flies Gazebo's:
 its ``simulator_mavlink`` module connects to
-:class:`~multicosim.mavlink.hil_bridge.HilTcpBridge` (TCP 4560 + instance, lockstep), and its
+:class:`~multicosim.px4.simulator.HilTcpBridge` (TCP 4560 + instance, lockstep), and its
 MAVLink API link is carried to the same ground station that drives our built-in autopilot
 (:mod:`multicosim.mavlink.gcs`), so ``simulation.firmware.send`` flies a mission on either.
 
@@ -40,8 +40,6 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 from ..core.errors import ConfigurationError, NodeStartError
 from ..core.interfaces import Component, Node
 from ..mavlink.hil import Wire
-from ..mavlink.hil_bridge import SIM_PORT, HilTcpBridge
-from ..mavlink.mission import Topics
 from ..mavlink.params import PARAM_NAME
 from ..mavlink.udp import API_PORT, GCS_PORT, Link, UdpBridge
 from ..placement import Endpoint, Placement, ProgramSpec
@@ -53,6 +51,8 @@ from ..placement.firmware import (
     param_value,
     udp_free,
 )
+from ..quadrotor.topics import Topics
+from .simulator import SIM_PORT, HilTcpBridge
 
 if TYPE_CHECKING:
     from ..local import LocalEnvironment

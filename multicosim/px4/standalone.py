@@ -20,10 +20,11 @@ import msgspec
 
 from ..core.fidelity import Fidelity
 from ..local import InProcessComponent, LocalEnvironment, ProcessSimulator
-from ..mavlink.mission import MuJoCo, world_topics
 from ..mavlink.udp import API_PORT, GCS_PORT, Link, UdpBridge
+from ..physics.config import WorldConfig
 from ..placement import Placement, as_placement
 from ..placement.firmware import FirmwareNodes
+from ..quadrotor.topics import world_topics
 from .autopilot.firmware import Autopilot
 from .scenario import PX4Component, WorldComponent
 from .sitl import SITL
@@ -70,7 +71,7 @@ def run_sitl(
     fidelity: Fidelity = "low",
     speed: float = 1.0,
     links: list[Link] | None = None,
-    world: MuJoCo | None = None,
+    world: WorldConfig | None = None,
     seed: int = 0,
     duration: float | None = None,
     stop: threading.Event | None = None,
@@ -83,7 +84,7 @@ def run_sitl(
     Runs until ``duration`` simulated seconds have passed, ``stop`` is set, or Ctrl-C; returns
     the simulated time reached. ``on_ready`` gets the bound local ports once the links exist.
     """
-    world = world or MuJoCo()
+    world = world or WorldConfig()
     links = links if links is not None else [Link(GCS_PORT, 18570), Link(API_PORT, 14580)]
     params = {**paced_params(speed), **(params or {})}
     px4 = PX4Component(world, fidelity, params=params, placement="in-process")
@@ -116,7 +117,7 @@ class _StandalonePX4:
     """Real PX4 with only its simulator bridge: PX4 keeps its own MAVLink links and ports."""
 
     sitl: SITL
-    world: MuJoCo
+    world: WorldConfig
     params: dict[str, float]
     placement: Placement
     name: str = "px4"
@@ -143,7 +144,7 @@ def run_real_sitl(
     *,
     placement: str | Placement | None = None,
     speed: float = 1.0,
-    world: MuJoCo | None = None,
+    world: WorldConfig | None = None,
     seed: int = 0,
     duration: float | None = None,
     stop: threading.Event | None = None,
@@ -163,7 +164,7 @@ def run_real_sitl(
     """
     from .scenario import PX4Component, sitl_period
 
-    world = world or MuJoCo()
+    world = world or WorldConfig()
     world = dataclasses.replace(world, period=sitl_period(world))
     params = {**paced_params(speed), **(params or {})}
     where = as_placement(placement or ("process" if sitl.binary is not None else "docker"))

@@ -17,7 +17,8 @@ import math
 
 from ..core.deps import require
 from ..core.geo import LocalProjection
-from ..mavlink.mission import Configuration, Geofence, Home, MissionEnd, MuJoCo, Waypoint
+from ..mavlink.mission import Configuration, Geofence, Home, MissionEnd, Waypoint
+from ..physics.config import WorldConfig
 
 require("hypothesis", "hypothesis")
 from hypothesis import strategies as st  # noqa: E402 - after the dependency check, which names the extra
@@ -82,14 +83,14 @@ def missions(
 
 
 @st.composite
-def worlds(draw: st.DrawFn, home: Home | None = None) -> MuJoCo:
+def worlds(draw: st.DrawFn, home: Home | None = None) -> WorldConfig:
     """A MuJoCo world configuration: step, integrator, solver, iterations, noise."""
     timestep = draw(st.sampled_from((0.001, 0.002, 0.004)))
     substeps = draw(st.sampled_from((1, 2, 4)))
     period = timestep * substeps
     if period > 0.01:
         period = timestep * 2
-    return MuJoCo(
+    return WorldConfig(
         timestep=timestep,
         period=round(period, 6),
         integrator=draw(st.sampled_from(("Euler", "RK4", "implicit", "implicitfast"))),

@@ -7,21 +7,22 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from ..mavlink.hil import HilActuatorControls, HilGps, HilSensor, MavlinkPacket
-from ..mavlink.mission import world_topics
 from ..mavlink.trace import mission_trace
+from ..quadrotor.topics import world_topics
 from ..trace import (
     TraceOptions,
 )
 
 if TYPE_CHECKING:
-    from ..mavlink.mission import MuJoCo
+    from ..physics.config import WorldConfig
     from .autopilot.firmware import AutopilotSpec
 
 __all__ = ["trace_options"]
 
 
-def trace_options(spec: AutopilotSpec, world: MuJoCo) -> TraceOptions:
-    """Types, decoders and Foxglove channels of a PX4 simulation (see the module docstring)."""
+def trace_options(spec: AutopilotSpec, world: WorldConfig, name: str = "px4") -> TraceOptions:
+    """Types, decoders and Foxglove channels of a PX4 simulation (see the module docstring);
+    ``name`` is the vehicle's, which its channels are under."""
     topics = world_topics(world)
     mavlink_wire = spec.wire == "mavlink"
     hil = {
@@ -39,6 +40,7 @@ def trace_options(spec: AutopilotSpec, world: MuJoCo) -> TraceOptions:
         topic: MavlinkPacket if mavlink_wire else tp for topic, tp in hil.items()
     }
     return mission_trace(
+        vehicle=name,
         uplink=spec.uplink,
         downlink=spec.downlink,
         truth=topics.truth,

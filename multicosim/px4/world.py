@@ -1,6 +1,6 @@
 """The physics world of the PX4 scenario: a participant publishing PX4's sensor messages.
 
-Two vehicle models, the same sensor messages (:class:`~multicosim.mavlink.sensors.HilSensors`):
+Two vehicle models, the same sensor messages (:class:`~multicosim.quadrotor.sensors.HilSensors`):
 
 * ``point_mass`` (low fidelity): a point mass whose velocity follows the autopilot's velocity
   setpoint with a first-order lag, ideal sensors; scalar math so a minute of flight costs
@@ -22,13 +22,13 @@ import msgspec
 
 from ..core.errors import ConfigurationError
 from ..core.geo import GRAVITY
-from ..mavlink.airframe import NONE_IRIS
 from ..mavlink.dialect import MODE_FLAG_ARMED
 from ..mavlink.hil import ACTUATOR_FLAG_VELOCITY, HilActuatorControls, MavlinkPacket, Wire, read
-from ..mavlink.sensors import HilSensors
 from ..physics.config import WorldConfig
 from ..physics.obstacles import ClearanceMonitor, placed
 from ..physics.wind import Body, WindField, drag_force, wind_generator
+from ..quadrotor.airframe import NONE_IRIS
+from ..quadrotor.sensors import HilSensors
 from ..runtime.context import StepContext, Subscription
 
 __all__ = ["PointMassWorld", "WorldSpec", "world"]
@@ -192,7 +192,7 @@ def world(spec: WorldSpec) -> Any:
     """
     if spec.model == "point_mass":
         return PointMassWorld(spec)
-    from ..mavlink.quadrotor import QuadrotorVehicle
     from ..physics.world import World
+    from ..quadrotor.vehicle import QuadrotorVehicle
 
     return World(spec.world, QuadrotorVehicle(wire=spec.wire))

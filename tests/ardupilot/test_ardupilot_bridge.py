@@ -62,7 +62,7 @@ def probe(simulator: Any, topic: str, tp: type[Any], name: str) -> Probe:
 
 
 def test_the_bridge_steps_the_world_in_lockstep_with_arducopters_frames(tmp_path: Path) -> None:
-    simulator = ardupilot.Copter(firmware_dir=str(fake_ardupilot(tmp_path, "climb")))
+    simulator = ardupilot.ArduCopter(firmware_dir=str(fake_ardupilot(tmp_path, "climb")))
     truth = probe(simulator, "ardupilot/truth", Truth, "truth-probe")
     servos = probe(simulator, "ardupilot/servos", ServoOutputs, "servo-probe")
     with simulator.start() as simulation:
@@ -101,7 +101,7 @@ def test_the_bridge_steps_the_world_in_lockstep_with_arducopters_frames(tmp_path
 
 
 def test_a_repeated_frame_is_answered_again_without_advancing(tmp_path: Path) -> None:
-    simulator = ardupilot.Copter(firmware_dir=str(fake_ardupilot(tmp_path, "resend")))
+    simulator = ardupilot.ArduCopter(firmware_dir=str(fake_ardupilot(tmp_path, "resend")))
     with simulator.start() as simulation:
         simulation.advance(0.5)
         bridge = simulation.firmware.firmware_nodes.bridge
@@ -117,7 +117,7 @@ def test_a_repeated_frame_is_answered_again_without_advancing(tmp_path: Path) ->
 
 
 def test_packets_resent_while_the_simulation_paused_are_answered_once(tmp_path: Path) -> None:
-    simulator = ardupilot.Copter(firmware_dir=str(fake_ardupilot(tmp_path, "climb")))
+    simulator = ardupilot.ArduCopter(firmware_dir=str(fake_ardupilot(tmp_path, "climb")))
     with simulator.start() as simulation:
         simulation.advance(0.1)
         time.sleep(2.5)  # the simulation is paused: the stand-in resends its packet twice
@@ -138,7 +138,7 @@ def test_packets_resent_while_the_simulation_paused_are_answered_once(tmp_path: 
 
 
 def test_arducopter_restarting_is_an_error_naming_it(tmp_path: Path) -> None:
-    simulator = ardupilot.Copter(firmware_dir=str(fake_ardupilot(tmp_path, "restart")))
+    simulator = ardupilot.ArduCopter(firmware_dir=str(fake_ardupilot(tmp_path, "restart")))
     with simulator.start() as simulation, pytest.raises(mcs.NodeCrashedError) as info:
         simulation.advance(1.0)
     assert info.value.name == "ardupilot"
@@ -147,7 +147,7 @@ def test_arducopter_restarting_is_an_error_naming_it(tmp_path: Path) -> None:
 
 
 def test_arducopter_dying_mid_run_is_reported_with_its_exit_code(tmp_path: Path) -> None:
-    simulator = ardupilot.Copter(firmware_dir=str(fake_ardupilot(tmp_path, "crash")))
+    simulator = ardupilot.ArduCopter(firmware_dir=str(fake_ardupilot(tmp_path, "crash")))
     with simulator.start() as simulation, pytest.raises(mcs.NodeCrashedError) as info:
         simulation.advance(1.0)
     assert info.value.name == "ardupilot"
@@ -159,7 +159,7 @@ def test_arducopter_dying_mid_run_is_reported_with_its_exit_code(tmp_path: Path)
 
 
 def test_a_firmware_that_exits_at_start_is_named_with_its_output(tmp_path: Path) -> None:
-    simulator = ardupilot.Rover(firmware_dir=str(fake_ardupilot(tmp_path, "exit")))
+    simulator = ardupilot.ArduRover(firmware_dir=str(fake_ardupilot(tmp_path, "exit")))
     with pytest.raises(mcs.NodeStartError) as info:
         simulator.start()
     assert info.value.name == "ardupilot"
@@ -171,14 +171,14 @@ def test_a_firmware_that_exits_at_start_is_named_with_its_output(tmp_path: Path)
 def test_a_firmware_that_never_sends_a_servo_packet_times_out(tmp_path: Path) -> None:
     firmware = ardupilot.SITL(directory=str(fake_ardupilot(tmp_path, "silent")), start_timeout=1.5)
     with pytest.raises(mcs.NodeStartError) as info:
-        ardupilot.Copter(firmware=firmware).start()
+        ardupilot.ArduCopter(firmware=firmware).start()
     assert "did not send a servo packet to its simulator" in str(info.value)
     assert "start-up limit of 1.5 s" in str(info.value)
     assert "waiting for nothing" in info.value.log_tail
 
 
 def test_a_firmware_that_never_speaks_mavlink_fails_to_start(tmp_path: Path) -> None:
-    simulator = ardupilot.Copter(firmware_dir=str(fake_ardupilot(tmp_path, "mute")))
+    simulator = ardupilot.ArduCopter(firmware_dir=str(fake_ardupilot(tmp_path, "mute")))
     with pytest.raises(mcs.NodeStartError) as info:
         simulator.start()
     assert info.value.name == "ardupilot"
@@ -190,7 +190,7 @@ def test_a_firmware_that_never_speaks_mavlink_fails_to_start(tmp_path: Path) -> 
 
 
 def test_the_link_carries_mavlink_both_ways_and_strangers_are_ignored(tmp_path: Path) -> None:
-    simulator = ardupilot.Copter(firmware_dir=str(fake_ardupilot(tmp_path, "climb")))
+    simulator = ardupilot.ArduCopter(firmware_dir=str(fake_ardupilot(tmp_path, "climb")))
     down = probe(simulator, "ardupilot/mavlink/down", MavlinkPacket, "down-probe")
 
     class Sender:
@@ -236,7 +236,7 @@ def test_the_link_carries_mavlink_both_ways_and_strangers_are_ignored(tmp_path: 
 
 
 def test_stopping_leaves_nothing_behind(tmp_path: Path) -> None:
-    simulator = ardupilot.Copter(firmware_dir=str(fake_ardupilot(tmp_path, "climb")))
+    simulator = ardupilot.ArduCopter(firmware_dir=str(fake_ardupilot(tmp_path, "climb")))
     simulation = simulator.start()
     simulation.advance(0.1)
     node = simulation.firmware.firmware_nodes
@@ -296,7 +296,7 @@ def test_arducopter_does_not_outlive_a_killed_simulation(tmp_path: Path) -> None
     directory = fake_ardupilot(tmp_path / "ardupilot", "climb")
     program = (
         "import sys, time, multicosim.ardupilot as a\n"
-        f"sim = a.Copter(firmware_dir={str(directory)!r}).start()\n"
+        f"sim = a.ArduCopter(firmware_dir={str(directory)!r}).start()\n"
         "sim.advance(0.1)\n"
         "print(sim.firmware.firmware_nodes.pid, flush=True)\n"
         "time.sleep(120)\n"
@@ -328,7 +328,7 @@ def test_arducopter_does_not_outlive_a_killed_simulation(tmp_path: Path) -> None
 
 
 def test_missions_are_checked_before_they_are_flown(tmp_path: Path) -> None:
-    with ardupilot.Rover(firmware_dir=str(fake_ardupilot(tmp_path, "climb"))).start() as sim:
+    with ardupilot.ArduRover(firmware_dir=str(fake_ardupilot(tmp_path, "climb"))).start() as sim:
         near = ardupilot.Waypoint(sim.home.lat + 1e-4, sim.home.lon, 0.0)
         with pytest.raises(mcs.ConfigurationError, match=r"cruise_speed=12.*top speed"):
             sim.firmware.send(ardupilot.Configuration([near], cruise_speed=12.0))

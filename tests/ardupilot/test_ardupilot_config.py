@@ -30,28 +30,28 @@ from multicosim.ardupilot._frames import (
 from multicosim.ardupilot.faults import FaultsConfig, SimulatedFaults
 from multicosim.ardupilot.launch import SIM_PORT, claim_instance, launch_command
 from multicosim.core.geo import Home, LocalProjection
-from multicosim.mavlink.airframe import NONE_IRIS, Rotor
 from multicosim.mavlink.dialect import new_link
 from multicosim.mavlink.hil import Truth
+from multicosim.quadrotor.airframe import NONE_IRIS, Rotor
 
 # -- the firmware directory ------------------------------------------------------------------
 
 
 def test_a_firmware_is_needed() -> None:
     with pytest.raises(mcs.ConfigurationError, match="firmware_dir=None"):
-        ardupilot.Copter(fidelity="medium")
+        ardupilot.ArduCopter(fidelity="medium")
 
 
 def test_a_missing_directory_is_refused(tmp_path: Path) -> None:
     with pytest.raises(mcs.ConfigurationError, match="an existing directory"):
-        ardupilot.Copter(firmware_dir=str(tmp_path / "nowhere"))
+        ardupilot.ArduCopter(firmware_dir=str(tmp_path / "nowhere"))
 
 
 @pytest.mark.parametrize(
-    ("cls", "binary"), [(ardupilot.Copter, "arducopter"), (ardupilot.Rover, "ardurover")]
+    ("cls", "binary"), [(ardupilot.ArduCopter, "arducopter"), (ardupilot.ArduRover, "ardurover")]
 )
 def test_a_directory_without_the_binary_is_refused(
-    tmp_path: Path, cls: type[ardupilot.Copter], binary: str
+    tmp_path: Path, cls: type[ardupilot.ArduCopter], binary: str
 ) -> None:
     fake_ardupilot(tmp_path)
     (tmp_path / "bin" / binary).unlink()
@@ -66,15 +66,15 @@ def test_a_binary_that_is_not_executable_is_refused(tmp_path: Path) -> None:
     fake_ardupilot(tmp_path)
     (tmp_path / "bin" / "arducopter").chmod(0o644)
     with pytest.raises(mcs.ConfigurationError, match="executable"):
-        ardupilot.Copter(firmware_dir=str(tmp_path))
+        ardupilot.ArduCopter(firmware_dir=str(tmp_path))
 
 
 def test_a_missing_parameter_file_is_refused(tmp_path: Path) -> None:
     fake_ardupilot(tmp_path)
     (tmp_path / "params" / "rover.parm").unlink()
-    ardupilot.Copter(firmware_dir=str(tmp_path))  # the copter's file is there
+    ardupilot.ArduCopter(firmware_dir=str(tmp_path))  # the copter's file is there
     with pytest.raises(mcs.ConfigurationError, match=r"params/rover.parm .*default parameters"):
-        ardupilot.Rover(firmware_dir=str(tmp_path))
+        ardupilot.ArduRover(firmware_dir=str(tmp_path))
 
 
 @pytest.mark.parametrize(
@@ -84,33 +84,35 @@ def test_a_missing_parameter_file_is_refused(tmp_path: Path) -> None:
 def test_bad_parameters_are_refused(tmp_path: Path, params: dict[str, float], field: str) -> None:
     fake_ardupilot(tmp_path)
     with pytest.raises(mcs.ConfigurationError) as info:
-        ardupilot.Copter(firmware_dir=str(tmp_path), params=params)
+        ardupilot.ArduCopter(firmware_dir=str(tmp_path), params=params)
     assert info.value.field == field
 
 
 def test_there_is_no_low_fidelity_ardupilot(tmp_path: Path) -> None:
     fake_ardupilot(tmp_path)
     with pytest.raises(mcs.ConfigurationError, match=r"fidelity='low'.*MuJoCo"):
-        ardupilot.Copter(fidelity="low", firmware_dir=str(tmp_path))  # type: ignore[arg-type]
+        ardupilot.ArduCopter(fidelity="low", firmware_dir=str(tmp_path))  # type: ignore[arg-type]
 
 
 def test_the_world_step_must_divide_the_physics_frame(tmp_path: Path) -> None:
     fake_ardupilot(tmp_path)
     with pytest.raises(mcs.ConfigurationError, match=r"world.timestep=0.002.*2.5 ms"):
-        ardupilot.Copter(ardupilot.WorldConfig(timestep=0.002), firmware_dir=str(tmp_path))
-    world = ardupilot.Copter(ardupilot.WorldConfig(timestep=0.00125), firmware_dir=str(tmp_path))
+        ardupilot.ArduCopter(ardupilot.WorldConfig(timestep=0.002), firmware_dir=str(tmp_path))
+    world = ardupilot.ArduCopter(
+        ardupilot.WorldConfig(timestep=0.00125), firmware_dir=str(tmp_path)
+    )
     assert world.world.period == pytest.approx(0.0025)
 
 
 def test_an_image_runs_in_the_docker_placement_only() -> None:
     with pytest.raises(mcs.ConfigurationError, match="placement='docker'"):
-        ardupilot.Copter(image="multicosim/ardupilot-sitl:0.1.0")
+        ardupilot.ArduCopter(image="multicosim/ardupilot-sitl:0.1.0")
 
 
 def test_default_worlds_step_at_arducopters_loop_rate(tmp_path: Path) -> None:
     fake_ardupilot(tmp_path)
     for fidelity in ardupilot.FIRMWARE_FIDELITIES:
-        simulator = ardupilot.Rover(fidelity=fidelity, firmware_dir=str(tmp_path))
+        simulator = ardupilot.ArduRover(fidelity=fidelity, firmware_dir=str(tmp_path))
         assert simulator.world.period == pytest.approx(1 / 400)
         assert simulator.world == dataclasses.replace(
             ardupilot.default_world("rover", fidelity), period=simulator.world.period

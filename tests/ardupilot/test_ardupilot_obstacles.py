@@ -12,8 +12,8 @@ import pytest
 from ardupilot_helpers import wp
 
 import multicosim.ardupilot as ardupilot
-from multicosim.mavlink.airframe import NONE_IRIS
 from multicosim.physics import Box
+from multicosim.quadrotor.airframe import NONE_IRIS
 from multicosim.trace import SCENE_CHANNEL, Recorder, read_trace
 
 
@@ -22,7 +22,7 @@ def test_arducopter_flown_through_a_wall_collides_with_it(
 ) -> None:
     wall = Box(length=4, width=10, height=30, north=25, east=0)
     world = dataclasses.replace(ardupilot.default_world("copter", "medium"), obstacles=(wall,))
-    simulator = ardupilot.Copter(world, fidelity="medium", firmware_dir=ardupilot_dir)
+    simulator = ardupilot.ArduCopter(world, fidelity="medium", firmware_dir=ardupilot_dir)
     with simulator.start() as simulation, Recorder().attach(simulation) as recorder:
         config = ardupilot.Configuration([wp(world.home, 50, 0, 8)], time_limit=200.0)
         result = simulation.firmware.send(config)

@@ -22,7 +22,7 @@ PLAN = DATA / "survey_site.plan"
 def test_arducopter_flies_a_qgc_plan(ardupilot_dir: str) -> None:
     config = ardupilot.Configuration.from_plan(PLAN)
     params = ardupilot.read_params(DATA / "slow_climb_copter.csv")
-    simulator = ardupilot.Copter(fidelity="medium", firmware_dir=ardupilot_dir, params=params)
+    simulator = ardupilot.ArduCopter(fidelity="medium", firmware_dir=ardupilot_dir, params=params)
     with simulator.start() as simulation:
         home = simulation.home
         result = simulation.firmware.send(config)

@@ -56,7 +56,7 @@ def test_arducopter_flies_a_mission_deaf_to_rc_input_and_leaves_its_dataflash_lo
     # ArduPilot's simulated RC receiver is a UDP socket on all interfaces. Anyone may send
     # it channels: here flight mode switch low (CIRCLE in ArduCopter's defaults), throttle
     # up, sticks over, from before arming to the landing, to every UDP socket it holds.
-    simulator = ardupilot.Copter(fidelity="medium", firmware_dir=ardupilot_dir)
+    simulator = ardupilot.ArduCopter(fidelity="medium", firmware_dir=ardupilot_dir)
     target: dict[str, list[int]] = {}
     sent = []
     sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -116,7 +116,7 @@ def test_arducopter_flies_a_mission_deaf_to_rc_input_and_leaves_its_dataflash_lo
 
 
 def test_arducopter_listens_on_no_port_and_stops_cleanly(ardupilot_dir: str) -> None:
-    simulator = ardupilot.Copter(fidelity="medium", firmware_dir=ardupilot_dir)
+    simulator = ardupilot.ArduCopter(fidelity="medium", firmware_dir=ardupilot_dir)
     simulation = simulator.start()
     try:
         # Past ArduCopter's setup (it waits 2 s for the RC input it ignores): from there on it
@@ -142,8 +142,8 @@ def test_arducopter_listens_on_no_port_and_stops_cleanly(ardupilot_dir: str) -> 
 
 def test_two_arducopters_fly_side_by_side(ardupilot_dir: str) -> None:
     with (
-        ardupilot.Copter(fidelity="medium", firmware_dir=ardupilot_dir, seed=1).start() as one,
-        ardupilot.Copter(fidelity="medium", firmware_dir=ardupilot_dir, seed=2).start() as two,
+        ardupilot.ArduCopter(fidelity="medium", firmware_dir=ardupilot_dir, seed=1).start() as one,
+        ardupilot.ArduCopter(fidelity="medium", firmware_dir=ardupilot_dir, seed=2).start() as two,
     ):
         instances = {one.firmware.instance, two.firmware.instance}
         workdirs = {sim.firmware.firmware_nodes.workdir for sim in (one, two)}
@@ -160,7 +160,7 @@ def test_two_arducopters_fly_side_by_side(ardupilot_dir: str) -> None:
 
 
 def test_arducopter_dying_mid_flight_is_reported_with_its_output(ardupilot_dir: str) -> None:
-    simulator = ardupilot.Copter(fidelity="medium", firmware_dir=ardupilot_dir)
+    simulator = ardupilot.ArduCopter(fidelity="medium", firmware_dir=ardupilot_dir)
     victim: dict[str, int] = {}
 
     class KillAt:
@@ -188,7 +188,9 @@ def test_arducopter_dying_mid_flight_is_reported_with_its_output(ardupilot_dir: 
 def test_arducopter_flies_in_a_container_on_the_simulation_network(
     ardupilot_dir: str, mcs_runtime_image: str
 ) -> None:
-    simulator = ardupilot.Copter(fidelity="medium", firmware_dir=ardupilot_dir, placement="docker")
+    simulator = ardupilot.ArduCopter(
+        fidelity="medium", firmware_dir=ardupilot_dir, placement="docker"
+    )
     with simulator.start() as simulation:
         container = simulation.firmware.firmware_nodes.program
         assert isinstance(container, ContainerNode)

@@ -42,7 +42,7 @@ assert [r.status for r in campaign.results] == ["ok"] * 4 + ["violated"] * 4
 """
 
 FALSIFY = """
-from multicosim.falsify import falsify
+from multicosim.search.falsify import falsify
 
 result = falsify(
     simulate,

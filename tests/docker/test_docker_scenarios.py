@@ -122,14 +122,14 @@ def test_px4_same_seed_same_flight_on_process_and_docker(
 
 def test_px4_components_in_containers_check_their_image_first(engine: Any, image: str) -> None:
     sim = ContainerSimulator()
-    sim.add(px4.WorldComponent(px4.MuJoCo(), "medium", placement="docker"))
+    sim.add(px4.WorldComponent(px4.WorldConfig(), "medium", placement="docker"))
     sim.add(ContainerComponent("multicosim/missing:0", ["true"], name="missing"))
     with pytest.raises(ImageMissingError, match="multicosim/missing:0"):
         sim.start()
     # A container needs the simulation's network: a simulator of another placement refuses it.
     local = mcs.ProcessSimulator()
     with pytest.raises(mcs.ConfigurationError, match="'docker' placement") as info:
-        local.add(px4.WorldComponent(px4.MuJoCo(), "medium", placement="docker"))
+        local.add(px4.WorldComponent(px4.WorldConfig(), "medium", placement="docker"))
     assert info.value.field == "component"
 
 

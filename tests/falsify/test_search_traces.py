@@ -12,8 +12,8 @@ from matplotlib.patches import Rectangle
 
 import multicosim.attacks as attacks
 import multicosim.px4 as px4
-from multicosim.falsify import FalsificationResult, falsify
-from multicosim.geo import LocalProjection
+from multicosim.core.geo import LocalProjection
+from multicosim.search.falsify import FalsificationResult, falsify
 from multicosim.trace import read_trace
 from multicosim.trace._plot import figure
 

@@ -76,7 +76,7 @@ PROJ = LocalProjection(HOME.lat, HOME.lon)
 def test_a_flight_among_generated_obstacles_reports_a_collision_or_a_clearance(
     obstacles: tuple[Obstacle, ...], wind: Wind
 ) -> None:
-    world = px4.MuJoCo(obstacles=obstacles, wind=wind)
+    world = px4.WorldConfig(obstacles=obstacles, wind=wind)
     lat, lon = PROJ.reproject(70.0, 0.0)
     with px4.PX4(world, fidelity="low").start() as sim:
         result = sim.firmware.send(px4.Configuration([px4.Waypoint(lat, lon, 10.0)]))

@@ -92,7 +92,7 @@ def test_real_px4_fails_mid_flight(
 
 
 def test_real_ardupilot_killed_mid_flight(ardupilot_dir: str, detections: Detections) -> None:
-    simulator = ardupilot.Copter(fidelity="medium", firmware_dir=ardupilot_dir)
+    simulator = ardupilot.ArduCopter(fidelity="medium", firmware_dir=ardupilot_dir)
     trigger, pids = signal_when_airborne(simulator, "ardupilot", "ardupilot/truth", signal.SIGKILL)
     with simulator.start() as simulation:
         pids["ardupilot"] = pid_of(simulation, "ardupilot")
@@ -105,7 +105,7 @@ def test_real_ardupilot_killed_mid_flight(ardupilot_dir: str, detections: Detect
     assert "Starting sketch 'ArduCopter'" in error.log_tail
     detections.record("real ArduPilot killed mid-flight", trigger.fault_at, error_at, CRASH, error)
     # The next ArduPilot starts (its first servo packet) and steps in lockstep.
-    with ardupilot.Copter(fidelity="medium", firmware_dir=ardupilot_dir).start() as simulation:
+    with ardupilot.ArduCopter(fidelity="medium", firmware_dir=ardupilot_dir).start() as simulation:
         start = simulation.time  # its start waited for ArduPilot's first servo packet
         simulation.advance(2.0)
         assert simulation.time == pytest.approx(start + 2.0)

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 import multicosim as mcs
-from multicosim.mavlink.quadrotor import QuadrotorVehicle
 from multicosim.physics import Box, Cylinder, Wind, World, WorldConfig
 from multicosim.physics._surroundings import Surroundings
+from multicosim.quadrotor.vehicle import QuadrotorVehicle
 
 BOX = Box(length=6, width=2, height=5, north=20, east=10, yaw=30)
 CYLINDER = Cylinder(radius=1.5, height=8, north=-15, east=5)

@@ -56,7 +56,7 @@ def test_mission_of_the_wrong_type_is_refused() -> None:
 )
 def test_bad_world_configurations(kwargs: dict[str, object], field: str) -> None:
     with pytest.raises(mcs.ConfigurationError) as info:
-        px4.MuJoCo(**kwargs)  # type: ignore[arg-type]
+        px4.WorldConfig(**kwargs)  # type: ignore[arg-type]
     assert info.value.field == field
 
 
@@ -76,8 +76,8 @@ def test_configurations_round_trip_as_messages() -> None:
     config = px4.Configuration([px4.Waypoint(47.398, 8.546, 25.0)], end="rtl")
     data = msgspec.msgpack.encode(config)
     assert msgspec.msgpack.decode(data, type=px4.Configuration) == config
-    world = px4.MuJoCo(solver="CG", sensor_topics={"gps": "gps/attacked"})
-    assert msgspec.json.decode(msgspec.json.encode(world), type=px4.MuJoCo) == world
+    world = px4.WorldConfig(solver="CG", sensor_topics={"gps": "gps/attacked"})
+    assert msgspec.json.decode(msgspec.json.encode(world), type=px4.WorldConfig) == world
     bad = b'{"mission": [{"lat": 91, "lon": 8.5, "alt": 1}]}'
     with pytest.raises(msgspec.ValidationError, match="lat"):
         msgspec.json.decode(bad, type=px4.Configuration)
@@ -115,7 +115,7 @@ def test_generated_missions_are_inside_the_geofence(config: px4.Configuration) -
 
 
 @given(px4st.worlds())
-def test_generated_worlds_are_valid(world: px4.MuJoCo) -> None:
+def test_generated_worlds_are_valid(world: px4.WorldConfig) -> None:
     assert world.steps_per_period >= 1
 
 
@@ -130,7 +130,7 @@ def test_public_names() -> None:
         "Geofence",
         "Home",
         "MissionResult",
-        "MuJoCo",
+        "WorldConfig",
         "PX4Component",
         "PX4Node",
         "PX4Simulation",
@@ -146,7 +146,7 @@ def test_public_names() -> None:
     }
     for name in px4.__all__:
         assert getattr(px4, name) is not None
-    assert px4.Gazebo is px4.MuJoCo  # the paper's name
+    assert px4.Gazebo is px4.WorldConfig  # the paper's name
 
 
 def test_hil_helpers_read_and_write_both_wires() -> None:

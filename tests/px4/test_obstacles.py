@@ -15,9 +15,9 @@ import pytest
 import multicosim.px4 as px4
 from multicosim.core.fidelity import check_fidelity
 from multicosim.core.geo import LocalProjection
-from multicosim.mavlink.airframe import NONE_IRIS
 from multicosim.physics import Box, Cylinder
 from multicosim.px4.scenario import default_world
+from multicosim.quadrotor.airframe import NONE_IRIS
 from multicosim.search.requirements import Requirement
 from multicosim.trace import OBSTACLES_CHANNEL, SCENE_CHANNEL, Recorder, read_trace
 from multicosim.trace._plot import figure
@@ -36,7 +36,7 @@ def wp(north: float, east: float, alt: float) -> px4.Waypoint:
 
 
 @pytest.fixture
-def px4_world(mcs_fidelity: str) -> px4.MuJoCo:
+def px4_world(mcs_fidelity: str) -> px4.WorldConfig:
     """The fidelity's world with the wall and the pole."""
     return dataclasses.replace(default_world(check_fidelity(mcs_fidelity)), obstacles=(WALL, POLE))
 
@@ -87,7 +87,7 @@ def test_a_mission_past_the_box_reports_its_clearance(
 
 @pytest.mark.fidelity("low")
 def test_the_trace_and_its_plot_show_the_obstacles(tmp_path: Path) -> None:
-    world = px4.MuJoCo(obstacles=(WALL, POLE))
+    world = px4.WorldConfig(obstacles=(WALL, POLE))
     with px4.PX4(world, fidelity="low").start() as simulation, Recorder().attach(simulation) as rec:
         simulation.firmware.send(px4.Configuration([wp(60, 20, 10)], time_limit=120))
     trace = read_trace(rec.save(tmp_path / "px4.mcap"))

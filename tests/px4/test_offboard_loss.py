@@ -17,7 +17,7 @@ from typing import Any
 
 import pytest
 
-from multicosim.mavlink.dialect import Mode, decode_custom_mode
+from multicosim.px4.modes import Mode, decode_custom_mode
 from multicosim.px4.standalone import paced_params
 
 mavutil = pytest.importorskip("pymavlink.mavutil")

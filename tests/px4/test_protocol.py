@@ -13,7 +13,7 @@ from typing import Any
 
 import pytest
 
-from multicosim.mavlink.dialect import MainMode, Mode, SubMode, decode_custom_mode
+from multicosim.px4.modes import MainMode, Mode, SubMode, decode_custom_mode
 
 mavutil = pytest.importorskip("pymavlink.mavutil")
 

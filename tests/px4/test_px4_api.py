@@ -24,7 +24,7 @@ def wp(north: float, east: float, alt: float) -> px4.Waypoint:
 
 
 def test_listing_1_of_the_paper() -> None:
-    world = px4.MuJoCo()
+    world = px4.WorldConfig()
     simulator = px4.PX4(world, fidelity="low")
     simulation = simulator.start()
     try:

@@ -16,13 +16,13 @@ import multicosim as mcs
 import multicosim.px4 as px4
 from multicosim.core.geo import LocalProjection
 from multicosim.mavlink.hil import HilGps, HilSensor
-from multicosim.mavlink.mission import world_topics
-from multicosim.mavlink.sensors import ACCEL_DENSITY, GYRO_DENSITY
 from multicosim.px4.scenario import WorldComponent
+from multicosim.quadrotor.sensors import ACCEL_DENSITY, GYRO_DENSITY
+from multicosim.quadrotor.topics import world_topics
 
 
 def _readings(seconds: float) -> tuple[list[HilGps], list[HilSensor], Any]:
-    world = px4.MuJoCo(period=0.004)
+    world = px4.WorldConfig(period=0.004)
     topics = world_topics(world)
     gps: list[HilGps] = []
     imu: list[HilSensor] = []

@@ -28,11 +28,11 @@ import multicosim as mcs
 import multicosim.px4 as px4
 from multicosim.core.geo import LocalProjection
 from multicosim.mavlink.hil import Truth, Wire
-from multicosim.mavlink.hil_bridge import HIL_CLOCK_START_US, HilTcpBridge
-from multicosim.mavlink.mission import world_topics
 from multicosim.mavlink.udp import API_PORT
 from multicosim.px4.scenario import WorldComponent
+from multicosim.px4.simulator import HIL_CLOCK_START_US, HilTcpBridge
 from multicosim.px4.sitl import API_LOCAL_PORT, claim_instance
+from multicosim.quadrotor.topics import world_topics
 from pytest_multicosim.px4 import RealPX4
 
 HOME = px4.Home()
@@ -170,7 +170,7 @@ class FakeSimulatorClient(threading.Thread):
 def test_bridge_runs_the_world_in_lockstep_with_a_tcp_simulator_client(
     placement: str, wire: Wire
 ) -> None:
-    world = px4.MuJoCo(period=0.004)
+    world = px4.WorldConfig(period=0.004)
     topics = world_topics(world)
     sim = mcs.ProcessSimulator(seed=0)
     sim.add(WorldComponent(world, "medium", placement=placement))
@@ -216,7 +216,7 @@ def test_bridge_runs_the_world_in_lockstep_with_a_tcp_simulator_client(
 
 
 def test_bridge_drops_a_client_that_speaks_no_mavlink() -> None:
-    world = px4.MuJoCo(period=0.004)
+    world = px4.WorldConfig(period=0.004)
     sim = mcs.ProcessSimulator(seed=0)
     sim.add(WorldComponent(world, "medium", placement="in-process"))
     bridge_id = sim.add(

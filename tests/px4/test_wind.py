@@ -15,10 +15,10 @@ import pytest
 import multicosim.px4 as px4
 from multicosim.core.fidelity import check_fidelity
 from multicosim.core.geo import GRAVITY, LocalProjection
-from multicosim.mavlink.airframe import NONE_IRIS
 from multicosim.physics import Wind
 from multicosim.physics.wind import AIR_DENSITY
 from multicosim.px4.scenario import default_world
+from multicosim.quadrotor.airframe import NONE_IRIS
 
 HOME = px4.Home()
 PROJ = LocalProjection(HOME.lat, HOME.lon)
@@ -39,7 +39,7 @@ def hover(simulation: px4.PX4Simulation) -> px4.MissionResult:
 
 
 @pytest.fixture
-def px4_world(mcs_fidelity: str) -> px4.MuJoCo:
+def px4_world(mcs_fidelity: str) -> px4.WorldConfig:
     """The fidelity's world in a steady wind from the east."""
     return dataclasses.replace(
         default_world(check_fidelity(mcs_fidelity)), wind=Wind(speed=WIND, direction=90.0)

@@ -42,7 +42,7 @@ def rotate(q: dict[str, float], v: tuple[float, float, float]) -> tuple[float, .
 def flight(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
     """A low-fidelity PX4 flight among the obstacles: its trace and its layout."""
     path = tmp_path_factory.mktemp("scene")
-    world = px4.MuJoCo(obstacles=(HANGAR, TANK))
+    world = px4.WorldConfig(obstacles=(HANGAR, TANK))
     lat, lon = PROJ.reproject(20.0, -20.0)
     mission = px4.Configuration([px4.Waypoint(lat, lon, 8.0)], time_limit=60)
     with px4.PX4(world, fidelity="low").start() as simulation, Recorder().attach(simulation) as rec:

@@ -62,7 +62,7 @@ def check_protocols() -> None:
 def check_ardupilot_is_typed() -> None:
     import multicosim.ardupilot as ardupilot
 
-    simulator = ardupilot.Copter(fidelity="medium", firmware_dir="ardupilot-sitl")
+    simulator = ardupilot.ArduCopter(fidelity="medium", firmware_dir="ardupilot-sitl")
     with simulator.start() as simulation:
         assert_type(simulation, ardupilot.ArduPilotSimulation)
         assert_type(simulation.home, ardupilot.Home)

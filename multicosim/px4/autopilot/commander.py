@@ -13,8 +13,8 @@ from ...mavlink.dialect import (
     SEV_CRITICAL,
     SEV_NOTICE,
     SEV_WARNING,
-    Mode,
 )
+from ..modes import Mode
 from .state import State
 
 __all__ = ["Commander"]

@@ -37,8 +37,8 @@ from ...mavlink.dialect import (
     RESULT_TEMP_REJECTED,
     RESULT_UNSUPPORTED,
     SEV_WARNING,
-    Mode,
 )
+from ..modes import Mode
 from .state import State
 
 __all__ = ["Commands"]

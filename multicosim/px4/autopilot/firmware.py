@@ -22,18 +22,11 @@ import msgspec
 
 from ...core.errors import ConfigurationError
 from ...mavlink import dialect as _mav
-from ...mavlink.dialect import (
-    MISSION_STATE_NO_MISSION,
-    MainMode,
-    Mode,
-    SubMode,
-    decode_frames,
-    dialect,
-    new_link,
-)
+from ...mavlink.dialect import MISSION_STATE_NO_MISSION, decode_frames, dialect, new_link
 from ...mavlink.hil import HilGps, HilSensor, MavlinkPacket, Truth, Wire, pack, unpack
-from ...mavlink.mission import Topics
+from ...quadrotor.topics import Topics
 from ...runtime.context import StepContext, Subscription
+from ..modes import MainMode, Mode, SubMode
 from .commander import Commander
 from .commands import Commands
 from .control import MultirotorController

@@ -43,9 +43,9 @@ from ...mavlink.dialect import (
     NAV_COMMANDS,
     SEV_CRITICAL,
     SEV_WARNING,
-    Mode,
 )
 from ...mavlink.plan import command_name
+from ..modes import Mode
 from .geofence import inside_fence
 from .state import Item, State
 

@@ -27,10 +27,10 @@ from ...mavlink.dialect import (
     MODE_FLAG_ARMED,
     NAV_COMMANDS,
     SEV_NOTICE,
-    Mode,
 )
 from ...mavlink.hil import ACTUATOR_FLAG_VELOCITY, HilActuatorControls
 from ...mavlink.plan import command_name
+from ..modes import Mode
 from .control import position_control
 from .state import Item, State, Vec3
 

@@ -14,7 +14,8 @@ from typing import TYPE_CHECKING, Any
 
 import msgspec
 
-from ...mavlink.dialect import SEV_INFO, Mode
+from ...mavlink.dialect import SEV_INFO
+from ..modes import Mode
 
 if TYPE_CHECKING:
     from .control import MultirotorController

@@ -36,11 +36,10 @@ from ...mavlink.dialect import (
     TARGET_IGNORE_POSITION,
     TARGET_IGNORE_VELOCITY,
     TARGET_IGNORE_YAW_RATE,
-    MainMode,
-    Mode,
     dialect,
     pack_scalar,
 )
+from ..modes import MainMode, Mode
 from .state import State
 
 __all__ = ["GCS_STREAMS", "Streams", "onboard_streams"]

@@ -2,7 +2,7 @@
 
 ``python -m multicosim participant multicosim.px4.world:world --config JSON`` runs it as a
 process. It reads HIL_ACTUATOR_CONTROLS (four motor outputs in [0, 1] while armed) and
-publishes PX4's sensor messages through :class:`~multicosim.mavlink.sensors.HilSensors`.
+publishes PX4's sensor messages through :class:`~multicosim.quadrotor.sensors.HilSensors`.
 
 MuJoCo's frames are east-north-up (world) and forward-left-up (body); PX4's are
 north-east-down and forward-right-down: :func:`~multicosim.physics.frames.ned_state`
@@ -16,14 +16,14 @@ from typing import TYPE_CHECKING, Any
 
 import mujoco
 
+from ..mavlink.dialect import MODE_FLAG_ARMED
+from ..mavlink.hil import ACTUATOR_FLAG_VELOCITY, HilActuatorControls, MavlinkPacket, Wire, read
 from ..physics.frames import NedState, ned_state
 from ..physics.wind import Body
 from ..physics.world import Physics
 from .airframe import NONE_IRIS, Airframe
-from .dialect import MODE_FLAG_ARMED
-from .hil import ACTUATOR_FLAG_VELOCITY, HilActuatorControls, MavlinkPacket, Wire, read
-from .mission import SENSORS, Topics
 from .sensors import HilSensors
+from .topics import SENSORS, Topics
 
 if TYPE_CHECKING:
     from ..runtime.context import StepContext, Subscription
@@ -32,7 +32,7 @@ __all__ = ["QuadrotorVehicle"]
 
 
 class QuadrotorVehicle:
-    """A quadrotor built from an :class:`~multicosim.mavlink.airframe.Airframe` (PX4's none_iris).
+    """A quadrotor built from an :class:`~multicosim.quadrotor.airframe.Airframe` (PX4's none_iris).
 
     Motor outputs drive the rotors only while the HIL_ACTUATOR_CONTROLS mode says armed
     (as PX4's simulators do); sensors come out on the world's topics in ``wire`` form.

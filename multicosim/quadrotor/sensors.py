@@ -23,12 +23,12 @@ import math
 from typing import Any
 
 from ..core.geo import LocalProjection, pressure_hpa, rotate_to_body
+from ..mavlink.hil import BARO_FIELDS, IMU_FIELDS, MAG_FIELDS, HilGps, HilSensor, Wire, pack, truth
 from ..physics.config import WorldConfig
 from ..physics.frames import NedState, Vec3
 from ..physics.obstacles import NO_OBSTACLES, Proximity
 from ..runtime.context import StepContext
-from .hil import BARO_FIELDS, IMU_FIELDS, MAG_FIELDS, HilGps, HilSensor, Wire, pack, truth
-from .mission import Topics, world_topics
+from .topics import Topics, world_topics
 
 __all__ = ["GPS_PERIOD", "HilSensors", "Vec3"]
 
