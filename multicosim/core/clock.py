@@ -31,6 +31,7 @@ __all__ = [
     "Member",
     "Scheduler",
     "StepResult",
+    "Wrapper",
     "find_scheduler",
     "to_ns",
 ]
@@ -335,12 +336,27 @@ class Clocked(Protocol):
         ...
 
 
+@runtime_checkable
+class Wrapper(Protocol):
+    """A simulation of one's own built on another (``simulation`` is the one it wraps), as a
+    scenario's simulation is built on its simulator's."""
+
+    simulation: object
+
+
 def find_scheduler(simulation: object) -> Scheduler:
-    """The scheduler of ``simulation``: a Scheduler itself, or a :class:`Clocked` simulation's."""
-    if isinstance(simulation, Scheduler):
-        return simulation
-    if isinstance(simulation, Clocked):
-        return simulation.scheduler
+    """The scheduler of ``simulation``: a Scheduler itself, a :class:`Clocked` simulation's, or
+    that of the simulation a :class:`Wrapper` wraps."""
+    seen: set[int] = set()
+    while id(simulation) not in seen:
+        seen.add(id(simulation))
+        if isinstance(simulation, Scheduler):
+            return simulation
+        if isinstance(simulation, Clocked):
+            return simulation.scheduler
+        if not isinstance(simulation, Wrapper):
+            break
+        simulation = simulation.simulation
     raise ConfigurationError(
         "simulation",
         simulation,
