@@ -382,6 +382,7 @@ API = (
     "multicosim.runtime",
     "multicosim.placement",
     "multicosim.docker",
+    "multicosim.ray",
     "multicosim.physics",
     "multicosim.px4",
     "multicosim.ardupilot",
