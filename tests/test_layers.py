@@ -271,9 +271,12 @@ def _px4_in(module: str) -> Iterator[str]:
         )
         if name in _PX4_OWN:
             yield f"{MODULES[module].relative_to(ROOT)}:{node.lineno} {name}"
-        if isinstance(node, ast.Constant) and isinstance(node.value, str):
-            if node.value.startswith("px4/"):
-                yield f"{MODULES[module].relative_to(ROOT)}:{node.lineno} topic {node.value!r}"
+        if (
+            isinstance(node, ast.Constant)
+            and isinstance(node.value, str)
+            and node.value.startswith("px4/")
+        ):
+            yield f"{MODULES[module].relative_to(ROOT)}:{node.lineno} topic {node.value!r}"
     for name, _, line in _imports(module):
         if (_ours(name) or "").startswith("multicosim.px4"):
             yield f"{MODULES[module].relative_to(ROOT)}:{line} imports {name}"
