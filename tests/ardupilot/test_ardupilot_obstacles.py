@@ -40,6 +40,6 @@ def test_arducopter_flown_through_a_wall_collides_with_it(
     (entity,) = scene.data["entities"]
     (cube,) = entity["cubes"]
     assert entity["id"] == "obstacle 0"
-    assert entity["frame_id"] == trace.topic("px4/pose")[0].data["frame_id"]
+    assert entity["frame_id"] == trace.topic("ardupilot/pose")[0].data["frame_id"]
     assert cube["size"] == pytest.approx({"x": 4.0, "y": 10.0, "z": 30.0})
     assert cube["pose"]["position"] == pytest.approx({"x": 0.0, "y": 25.0, "z": 15.0})
