@@ -90,7 +90,7 @@ def process_step(path: Path, iterations: int, rounds: int) -> dict[str, Any]:
     in_process = mcs.ProcessSimulator()
     in_process.add(fmi.FMU(path, name="vdp", period=STEP, history=False))
     simulator = mcs.ProcessSimulator()
-    simulator.add(fmi.FMU(path, name="vdp", period=STEP, where="process", history=False))
+    simulator.add(fmi.FMU(path, name="vdp", period=STEP, placement="process", history=False))
     # The lockstep exchange alone: a participant process whose step does nothing.
     idle = mcs.ProcessSimulator()
     idle.add(
@@ -144,7 +144,7 @@ def process_step(path: Path, iterations: int, rounds: int) -> dict[str, Any]:
     }
 
 
-def growth(path: Path, where: fmi.Where, duration: float, repeat: int) -> dict[str, Any]:
+def growth(path: Path, where: str, duration: float, repeat: int) -> dict[str, Any]:
     """Cost of ``advance(duration)`` with 1..16 FMUs in one simulation: CPU time of this
     process in-process, wall time with the FMUs as processes; the counts take turns, and
     each count's median over ``repeat`` runs is kept."""
@@ -155,7 +155,7 @@ def growth(path: Path, where: fmi.Where, duration: float, repeat: int) -> dict[s
             simulator = mcs.ProcessSimulator()
             for i in range(count):
                 simulator.add(
-                    fmi.FMU(path, name=f"vdp{i}", period=STEP, where=where, history=False)
+                    fmi.FMU(path, name=f"vdp{i}", period=STEP, placement=where, history=False)
                 )
             with simulator.start() as sim:
                 sim.advance(10 * STEP)  # set-up and first steps are not the growth measured
