@@ -1,7 +1,7 @@
 """ArduPilot regression suite: ArduCopter and ArduRover fly our worlds as configured.
 
 Run with ``pytest scenarios/test_ardupilot.py --mcs-fidelity=medium,high
---mcs-ardupilot-dir=DIR`` (``MCS_ARDUPILOT_DIR``; add ``--mcs-backend=docker`` for
+--mcs-ardupilot-dir=DIR`` (``MCS_ARDUPILOT_DIR``; add ``--mcs-placement=docker`` for
 ArduPilot in a container). Without ArduPilot the tests are skipped with the reason. Each
 test gets a fresh simulation (stopped at teardown, whatever happens); ArduPilot's estimator
 is ready to arm after about 40 simulated seconds, so missions start there.

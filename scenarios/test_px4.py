@@ -1,7 +1,7 @@
 """PX4 regression suite: missions fly as configured at every fidelity marked.
 
 Run with ``pytest scenarios/test_px4.py --mcs-fidelity=low,medium`` (add
-``--mcs-fidelity=high --mcs-backend=docker`` for containers). Each test gets a fresh
+``--mcs-fidelity=high --mcs-placement=docker`` for containers). Each test gets a fresh
 simulation from the ``px4_simulation`` fixture (stopped at teardown, whatever happens).
 """
 

@@ -1,10 +1,10 @@
 """Regression suite of the rover FSA scenario (the paper's second case study).
 
 Runs at every fidelity level it is marked for and selected with ``--mcs-fidelity``, on the
-backend ``--mcs-backend`` selects::
+placement ``--mcs-placement`` selects::
 
     pytest scenarios/test_rover.py --mcs-fidelity=low,medium
-    pytest scenarios/test_rover.py --mcs-fidelity=high --mcs-backend=docker
+    pytest scenarios/test_rover.py --mcs-fidelity=high --mcs-placement=docker
 
 Assertions are on simulated quantities only (positions, headings, speeds, simulated time).
 """
