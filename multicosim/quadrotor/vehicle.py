@@ -55,7 +55,9 @@ class QuadrotorVehicle:
 
     def setup(self, physics: Physics, ctx: StepContext, topics: Mapping[str, str]) -> None:
         """Subscribe to the actuator outputs; set up the sensor suite."""
-        self._hil = HilSensors(physics.config, physics.config.period, self.wire)
+        self._hil = HilSensors(
+            physics.config, physics.config.period, self.wire, topics=Topics(**topics)
+        )
         self._hil.setup(ctx)
         tp = MavlinkPacket if self.wire == "mavlink" else HilActuatorControls
         self._actuators = ctx.subscribe(self._hil.topics.actuators, tp)
@@ -70,7 +72,7 @@ class QuadrotorVehicle:
             latest = sub.latest
             self._cmd = read(latest, HilActuatorControls) if self.wire == "mavlink" else latest
         cmd = self._cmd
-        ctrl = physics.data.ctrl
+        ctrl = physics.ctrl
         if (
             cmd is not None
             and cmd.mode & MODE_FLAG_ARMED
@@ -88,11 +90,10 @@ class QuadrotorVehicle:
 
     def state(self, physics: Physics) -> NedState:
         """The vehicle's true state now, in NED/FRD (from MuJoCo's ENU/FLU)."""
-        d = physics.data
-        qpos = d.qpos.tolist()
+        qpos = physics.qpos.tolist()
         return ned_state(
             qpos[:3],
-            d.qvel[:3].tolist(),
+            physics.qvel[:3].tolist(),
             qpos[3:7],
             self._accel.tolist(),
             self._gyro.tolist(),

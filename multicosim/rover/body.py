@@ -37,7 +37,8 @@ class RoverVehicle:
     """
 
     model_path = Path(__file__).parent / "models" / "rover.xml"
-    sensors: Mapping[str, str] = SENSOR_TOPICS
+    sensors: Mapping[str, str] = {**SENSOR_TOPICS, "command": COMMAND_TOPIC}
+    """Its topics by name: the sensors it publishes and the command it reads."""
 
     def __init__(self, noise: SensorNoise | None = None) -> None:
         self.noise = noise or SensorNoise()
@@ -52,7 +53,9 @@ class RoverVehicle:
     def setup(self, physics: Physics, ctx: StepContext, topics: Mapping[str, str]) -> None:
         """Find the actuators and subscribe to the command topic."""
         self._topics = topics
-        self._command = ctx.subscribe(COMMAND_TOPIC, Command)
+        # A vehicle of this body driven otherwise (ArduRover's) reads no rover command.
+        command = topics.get("command")
+        self._command = ctx.subscribe(command, Command) if command is not None else None
         self._ctrl = [
             physics.actuator(name)
             for name in (
@@ -70,7 +73,8 @@ class RoverVehicle:
 
     def actuate(self, physics: Physics, ctx: StepContext) -> None:
         """Turn the latest command into steering angles and rear wheel rates."""
-        assert self._command is not None
+        if self._command is None:
+            return
         command = self._command.latest
         if command is None:
             return
