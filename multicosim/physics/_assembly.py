@@ -3,18 +3,21 @@ under its name at its start pose, the ground, the obstacles, one air."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 import mujoco
 
 from ..core.errors import ConfigurationError
-from .fleet import frame_quat, resolve_pose
+from .fleet import CONTACT_GEOM, frame_quat, resolve_pose
 
 if TYPE_CHECKING:
     from .config import WorldConfig
+    from .wind import Body
 
 __all__ = ["assemble"]
+
+_VEHICLE_AFFINITY = 4  # contact bit of vehicle spheres: obstacles use 2, the ground 1
 
 # What of a vehicle's model is the world's to set, so that attaching it raises no conflict:
 # the world's options (MuJoCo warns when an attached model's differ).
@@ -46,9 +49,12 @@ def _bodies(spec: Any) -> list[Any]:
     return found
 
 
-def assemble(config: WorldConfig, members: Sequence[Any]) -> tuple[Any, list[tuple[slice, ...]]]:
+def assemble(
+    config: WorldConfig, members: Sequence[Any], bodies: Mapping[str, Body | None]
+) -> tuple[Any, list[tuple[slice, ...]]]:
     """The compiled model of ``members`` (the world's ``_Member``), and each one's ``qpos``,
-    ``qvel``, ``ctrl`` and ``sensordata`` slices, in order."""
+    ``qvel``, ``ctrl`` and ``sensordata`` slices, in order; ``bodies`` are the bodies the
+    vehicles describe (None: none), which touch each other's."""
     specs = []
     for member in members:
         spec = member.vehicle.load_model()
@@ -62,7 +68,10 @@ def assemble(config: WorldConfig, members: Sequence[Any]) -> tuple[Any, list[tup
         specs.append(spec)
     world = mujoco.MjSpec()
     world.worldbody.add_geom(
-        name="ground", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0.0, 0.0, 1.0], contype=1,
+        name="ground",
+        type=mujoco.mjtGeom.mjGEOM_PLANE,
+        size=[0.0, 0.0, 1.0],
+        contype=1,
         conaffinity=1,
     )
     # The air is one: as dense and viscous as the model that asks most of it.
@@ -86,4 +95,16 @@ def assemble(config: WorldConfig, members: Sequence[Any]) -> tuple[Any, list[tup
     for member in members:
         if member.surroundings is not None:
             member.surroundings.attach_sphere(world)
+        body = bodies.get(member.name)
+        if body is not None:
+            # A sphere of the body's radius that touches only other vehicles' (a contact
+            # between two of them is a collision; the ground and obstacles see none of it).
+            world.body(f"{member.name}/{body.name}").add_geom(
+                name=f"{member.name}/{CONTACT_GEOM}",
+                type=mujoco.mjtGeom.mjGEOM_SPHERE,
+                size=[body.radius, 0.0, 0.0],
+                contype=_VEHICLE_AFFINITY,
+                conaffinity=_VEHICLE_AFFINITY,
+                rgba=(0.0, 0.0, 0.0, 0.0),
+            )
     return world.compile(), views

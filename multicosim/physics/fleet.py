@@ -24,6 +24,7 @@ if TYPE_CHECKING:
     from ..core.geo import Home
 
 __all__ = [
+    "CONTACT_GEOM",
     "Pose",
     "check_name",
     "fleet_topic",
@@ -31,6 +32,9 @@ __all__ = [
     "member_names",
     "resolve_pose",
 ]
+
+CONTACT_GEOM = "vehicle_contact"
+"""The name (under the vehicle's) of the sphere by which vehicles touch each other."""
 
 _NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_-]{0,31}$")
 

@@ -11,20 +11,23 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import math
 import os
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any, Protocol, cast, runtime_checkable
+
+import numpy as np
 
 from ..core.deps import require
 from ..core.errors import ConfigurationError, MulticosimError, PhysicsDivergedError
 from ..core.geo import GRAVITY, local_to_geodetic
 from .config import WorldConfig, check_sensor_topics
-from .fleet import Pose, check_name, fleet_topic, member_names
+from .encounter import CONTACTS_TOPIC, VehicleContact
+from .fleet import CONTACT_GEOM, Pose, check_name, fleet_topic, member_names
 from .obstacles import NO_OBSTACLES, Proximity
 from .wind import Body
 
 if TYPE_CHECKING:
-    import numpy as np
     import numpy.typing as npt
 
     from ..runtime.context import StepContext
@@ -161,15 +164,19 @@ class Physics:
         ...) in the model; MulticosimError if it has none."""
         found = int(mujoco.mj_name2id(self.model, kind, self.prefix + name))
         if found < 0:
-            raise MulticosimError(f"the model has no {kind.name.removeprefix('mjOBJ_').lower()} "
-                                  f"{self.prefix + name!r}")
+            raise MulticosimError(
+                f"the model has no {kind.name.removeprefix('mjOBJ_').lower()} "
+                f"{self.prefix + name!r}"
+            )
         return found
 
     def sensor(self, name: str) -> npt.NDArray[np.float64]:
         """The live values of the vehicle's sensor ``name`` (a view into ``sensordata``)."""
         index = self._sensors.get(name)
         if index is None:
-            sensor_id = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SENSOR, self.prefix + name)
+            sensor_id = mujoco.mj_name2id(
+                self.model, mujoco.mjtObj.mjOBJ_SENSOR, self.prefix + name
+            )
             if sensor_id < 0:
                 raise MulticosimError(f"the model has no sensor {self.prefix + name!r}")
             adr = int(self.model.sensor_adr[sensor_id])
@@ -337,6 +344,7 @@ class World:
         self.period = config.period
         self.physics: Physics | None = None
         self._start: float | None = None
+        self._contacts: _Contacts | None = None
         if isinstance(vehicle, Mapping):
             member_names(vehicle)
             self.members = [self._member(name, entry) for name, entry in vehicle.items()]
@@ -391,8 +399,13 @@ class World:
         if self.fleet:
             from ._assembly import assemble
 
-            model, views = assemble(self.config, self.members)
+            bodies = {
+                m.name: m.vehicle.body if isinstance(m.vehicle, Bodied) else None
+                for m in self.members
+            }
+            model, views = assemble(self.config, self.members, bodies)
             self.physics = physics = Physics(model, self.config)
+            self._contacts = _Contacts(model, [m.name for m in self.members])
             for member, slices in zip(self.members, views, strict=True):
                 member.physics = MemberPhysics(physics, f"{member.name}/", *slices)
                 member.ctx = cast("StepContext", _MemberContext(ctx, member.name))
@@ -419,7 +432,8 @@ class World:
             if member.surroundings is not None:
                 member.surroundings.bind(physics.model, ctx.seed, self.period)
         for member in self.members:
-            assert member.physics is not None and member.ctx is not None
+            assert member.physics is not None
+            assert member.ctx is not None
             member.vehicle.setup(member.physics, member.ctx, member.topics)
         # The first readings are published before any step: they must describe the state
         # the vehicles may have just set.
@@ -450,6 +464,9 @@ class World:
                 member.surroundings.blow(physics.model, physics.data, physics.time)
         physics.step_to(ctx.time - self._start)
         self._measure(ctx.time)
+        if self._contacts is not None:
+            for contact in self._contacts.new(physics.model, physics.data, ctx.time):
+                ctx.publish(CONTACTS_TOPIC, contact)
         for member in members:
             member.vehicle.sense(member.physics, member.ctx)  # type: ignore[arg-type]
 
@@ -458,6 +475,45 @@ class World:
         self.physics = None
         for member in self.members:
             member.physics = None
+
+
+class _Contacts:
+    """The contacts between a fleet's vehicles (their contact spheres), as they begin."""
+
+    def __init__(self, model: Any, names: list[str]) -> None:
+        self._geoms: dict[int, tuple[str, int]] = {}
+        for name in names:
+            geom = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, f"{name}/{CONTACT_GEOM}")
+            if geom >= 0:
+                self._geoms[geom] = (name, int(model.geom_bodyid[geom]))
+        self._order = {name: i for i, name in enumerate(names)}
+        self._touching: set[tuple[str, str]] = set()
+        self._velocity = np.zeros(6)
+
+    def _speed(self, model: Any, data: Any, body: int) -> list[float]:
+        mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_BODY, body, self._velocity, 0)
+        return self._velocity[3:].tolist()  # type: ignore[no-any-return]
+
+    def new(self, model: Any, data: Any, time: float) -> list[VehicleContact]:
+        """The contacts that began since the last call."""
+        if len(self._geoms) < 2:
+            return []
+        geoms = self._geoms
+        now: dict[tuple[str, str], tuple[int, int]] = {}
+        for g1, g2 in data.contact.geom[: data.ncon].tolist():
+            if g1 in geoms and g2 in geoms:
+                (a, body_a), (b, body_b) = geoms[g1], geoms[g2]
+                if self._order[a] > self._order[b]:
+                    (a, body_a), (b, body_b) = (b, body_b), (a, body_a)
+                now[(a, b)] = (body_a, body_b)
+        found = []
+        for (a, b), (body_a, body_b) in now.items():
+            if (a, b) not in self._touching:
+                va, vb = self._speed(model, data, body_a), self._speed(model, data, body_b)
+                speed = math.dist(va, vb)
+                found.append(VehicleContact(a, b, time, speed))
+        self._touching = set(now)
+        return found
 
 
 class _MemberContext:
