@@ -1,0 +1,155 @@
+"""Several vehicles in one world: their missions at once, and what happens between them."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+import multicosim as mcs
+from multicosim import fleet, px4
+from multicosim.core.geo import LocalProjection
+from multicosim.physics import Pose, WellClear
+from multicosim.quadrotor import NONE_IRIS
+
+HOME = px4.Home()
+PROJ = LocalProjection(HOME.lat, HOME.lon)
+REACH = 2 * NONE_IRIS.radius  # both bodies' radii
+APART = 80.0  # m between the two starts, along north
+
+
+def wp(north: float, east: float, alt: float) -> px4.Waypoint:
+    lat, lon = PROJ.reproject(north, east)
+    return px4.Waypoint(lat, lon, alt)
+
+
+def head_on(alt_alpha: float, alt_bravo: float) -> dict[str, px4.Configuration]:
+    """Alpha flies north to bravo's start, bravo south to alpha's, each at its altitude."""
+    return {
+        "alpha": px4.Configuration([wp(APART, 0, alt_alpha)], end="land", time_limit=90.0),
+        "bravo": px4.Configuration([wp(0, 0, alt_bravo)], end="land", time_limit=90.0),
+    }
+
+
+@pytest.fixture
+def fleet_vehicles() -> dict[str, fleet.PX4Vehicle]:
+    return {"alpha": fleet.PX4Vehicle(), "bravo": fleet.PX4Vehicle(start=Pose(north=APART))}
+
+
+def _true(sample: px4.FlightSample) -> tuple[float, float, float]:
+    """Where the world had the vehicle: north, east, up (m from home)."""
+    north, east = PROJ.project(sample.true_lat, sample.true_lon)
+    return north, east, sample.true_alt
+
+
+def _crossing(result: fleet.FleetResult, reach: float) -> tuple[float, float]:
+    """When the true centres first came within ``reach`` (interpolated between samples), and
+    how fast they closed then: from the vehicles' own trajectories."""
+    a, b = (result.results[n].trajectory for n in ("alpha", "bravo"))
+    by_time = {round(s.time, 6): s for s in b}
+    distances = [
+        (s.time, math.dist(_true(s), _true(by_time[round(s.time, 6)])))
+        for s in a
+        if round(s.time, 6) in by_time
+    ]
+    for i in range(2, len(distances)):
+        t, d = distances[i]
+        if d <= reach:
+            # How fast they closed before the contact (after it, they bounce).
+            (t1, d1), (t0, d0) = distances[i - 1], distances[i - 2]
+            closing = (d0 - d1) / (t1 - t0)
+            return t1 + (d1 - reach) / closing, closing
+    raise AssertionError("the centres never came within reach")
+
+
+@pytest.mark.fidelity("low", "medium")
+def test_head_on_at_one_altitude_is_a_collision_of_that_pair_when_they_meet(
+    fleet_simulation: fleet.FleetSimulation, mcs_fidelity: str
+) -> None:
+    result = fleet_simulation.fly(head_on(10.0, 10.0))
+    collisions = result.encounter.collisions
+    assert collisions, "flown head-on at one altitude, they did not collide"
+    first = collisions[0]
+    assert (first.a, first.b) == ("alpha", "bravo")
+    assert first.source == ("analytic" if mcs_fidelity == "low" else "contact")
+    analytic, closing = _crossing(result, REACH)
+    # Within one control period plus the time to cover the bodies' radii at that speed.
+    period = 0.1 if mcs_fidelity == "low" else 0.05
+    assert abs(first.time - analytic) <= period + REACH / closing
+    assert first.speed == pytest.approx(closing, rel=0.5)
+    assert result.encounter.min_separation() <= 0.0
+
+
+@pytest.mark.fidelity("low", "medium")
+def test_with_a_vertical_offset_the_closest_separation_is_the_offset(
+    fleet_simulation: fleet.FleetSimulation, mcs_fidelity: str
+) -> None:
+    result = fleet_simulation.fly(head_on(10.0, 15.0))
+    assert result.completed, {n: r.reason for n, r in result.results.items()}
+    assert not result.encounter.collisions
+    approach = result.encounter.closest["alpha-bravo"]
+    tolerance = 0.2 if mcs_fidelity == "low" else 0.5
+    assert approach.separation == pytest.approx(5.0 - REACH, abs=tolerance)
+    assert 0.0 < approach.north < APART
+    assert approach.up == pytest.approx(12.5, abs=tolerance)
+    signals = result.encounter.signals()
+    assert min(signals["separation"]) == pytest.approx(approach.separation)
+    assert signals["separation_alpha_bravo"] == signals["separation"]
+
+
+@pytest.fixture
+def fleet_well_clear() -> WellClear:
+    return WellClear(horizontal=20.0, vertical=10.0)
+
+
+@pytest.mark.fidelity("low", "medium")
+def test_well_clear_is_lost_where_its_thresholds_say(
+    fleet_simulation: fleet.FleetSimulation,
+) -> None:
+    result = fleet_simulation.fly(head_on(10.0, 15.0))
+    samples = result.encounter.pairs["alpha-bravo"]
+    lost = [i for i, s in enumerate(samples) if not s.well_clear]
+    assert lost, "they passed within 20 m and 5 m of each other and stayed well clear"
+    for i, s in enumerate(samples):
+        inside = s.horizontal <= 20.0 and s.vertical <= 10.0
+        assert s.well_clear is not inside, (i, s)
+    (interval,) = result.encounter.losses["alpha-bravo"]
+    assert interval.start == samples[lost[0]].time
+    assert interval.end == samples[lost[-1] + 1].time
+
+
+def test_overlapping_starts_are_refused_before_anything_starts() -> None:
+    with pytest.raises(mcs.ConfigurationError) as info:
+        fleet.Fleet(
+            {"alpha": fleet.PX4Vehicle(), "bravo": fleet.PX4Vehicle(start=Pose(east=0.2))}
+        )
+    assert info.value.field == "vehicles['bravo'].start"
+    assert "'alpha'" in str(info.value)
+
+
+@pytest.mark.parametrize(
+    ("vehicles", "field"),
+    [
+        ({}, "vehicles"),
+        ({"1st": fleet.PX4Vehicle()}, "vehicles"),
+        ({"alpha": "a PX4"}, "vehicles['alpha']"),
+    ],
+)
+def test_bad_fleets_are_refused(vehicles: dict[str, object], field: str) -> None:
+    with pytest.raises(mcs.ConfigurationError) as info:
+        fleet.Fleet(vehicles)  # type: ignore[arg-type]
+    assert info.value.field == field
+
+
+def test_a_fleet_names_each_vehicles_topics_and_flies_missions_by_name() -> None:
+    simulator = fleet.Fleet(
+        {"alpha": fleet.PX4Vehicle(), "bravo": fleet.PX4Vehicle(start=Pose(east=30.0))},
+        fidelity="low",
+    )
+    with simulator.start() as simulation:
+        with pytest.raises(mcs.ConfigurationError, match="charlie"):
+            simulation.fly({"charlie": head_on(10, 10)["alpha"]})
+        result = simulation.fly({"bravo": px4.Configuration([wp(0, 30, 5)], end="land")})
+    assert set(result.results) == {"bravo"}
+    assert result.results["bravo"].completed
+    assert min(_true(s)[1] for s in result.results["bravo"].trajectory) > 29.0
