@@ -36,8 +36,9 @@ from ..physics.encounter import NMAC, WellClear, check_volume
 from ..physics.fleet import Pose, member_names
 from ..placement import ParticipantProgram, Placement, Scenario, ScenarioSimulation, resolve
 from ..px4.procedure import PX4Procedure
-from ..px4.scenario import LOW_PERIOD, PX4Component, default_world, sitl_period, wire_of
+from ..px4.scenario import LOW_PERIOD, PX4Component, default_world, sitl_period
 from ..px4.sitl import SITL
+from ..px4.standalone import StandalonePX4, paced_params
 from ..px4.world import WorldSpec
 from ..quadrotor.airframe import NONE_IRIS
 from ..quadrotor.topics import SENSORS, world_topics
@@ -63,6 +64,9 @@ class PX4Vehicle:
     firmware: SITL | None = None
     params: Mapping[str, float] = dataclasses.field(default_factory=dict)
     placement: str | Placement | None = None
+    own_links: bool = False
+    """Real PX4 keeping its usual MAVLink ports (QGroundControl on UDP 14550, MAVSDK on
+    14540 + its instance), for a ground station of one's own; ``fly`` does not fly it."""
 
     def __post_init__(self) -> None:
         if not isinstance(self.start, Pose):
@@ -70,6 +74,10 @@ class PX4Vehicle:
         if self.firmware is not None and not isinstance(self.firmware, SITL):
             raise ConfigurationError(
                 "firmware", self.firmware, "None (the built-in autopilot) or a px4.SITL"
+            )
+        if self.own_links and self.firmware is None:
+            raise ConfigurationError(
+                "own_links", True, "False for the built-in autopilot (only real PX4 has them)"
             )
 
 
@@ -114,9 +122,11 @@ class FleetSimulation(ScenarioSimulation):
         vehicles: Mapping[str, NodeId[Any]],
         gcs: NodeId[Any],
         monitor: NodeId[InProcessNode[EncounterMonitor]],
+        own_links: frozenset[str] = frozenset(),
     ) -> None:
         super().__init__(simulation)
         self.vehicles: dict[str, Any] = {n: simulation.get(i) for n, i in vehicles.items()}
+        self._flown = sorted(set(vehicles) - own_links)
         self._gcs = simulation.get(gcs)
         self._monitor: EncounterMonitor = simulation.get(monitor).participant
 
@@ -124,10 +134,13 @@ class FleetSimulation(ScenarioSimulation):
         """Fly ``missions`` (a Configuration per vehicle, by name) at once, on one clock;
         each vehicle's result and the encounter so far."""
         for vehicle, config in missions.items():
-            node = self.vehicles.get(vehicle)
-            if node is None:
-                raise ConfigurationError("missions", vehicle, f"one of {sorted(self.vehicles)}")
-            node.check(config)
+            if vehicle not in self._flown:
+                raise ConfigurationError(
+                    "missions",
+                    vehicle,
+                    f"one of {self._flown} (a vehicle with its own links is not)",
+                )
+            self.vehicles[vehicle].check(config)
         flights = self._gcs.send(FleetMissions(missions=dict(missions)))
         return FleetResult(results=flights.results, encounter=self._monitor.encounter())
 
@@ -181,14 +194,29 @@ class Fleet(Scenario[FleetSimulation]):
         self.vehicles = dict(vehicles)
         # With real PX4 the world is its simulator, in this process beside its bridges.
         world_placement = resolve("in-process", self.fidelity) if real else self.placement
-        wire = wire_of(self.fidelity, world_placement, real)
+        self.components = {
+            name: PX4Component(
+                self._world_of(name),
+                self.fidelity,
+                name=name,
+                # Wall-clock clients of a paced PX4 get its paced loss timeouts; a user's win.
+                params={
+                    **(paced_params(realtime or 1.0) if vehicle.own_links else {}),
+                    **vehicle.params,
+                },
+                placement=vehicle.placement if vehicle.placement is not None else self.placement,
+                firmware=vehicle.firmware,
+            )
+            for name, vehicle in self.vehicles.items()
+        }
+        own = {n for n, v in self.vehicles.items() if v.own_links}
         self.world_ids: list[NodeId[Node]] = []
         if self.fidelity == "low":
             for name, vehicle in self.vehicles.items():
                 spec = WorldSpec(
                     model="point_mass",
                     world=self._world_of(name),
-                    wire=wire,
+                    wire=self.components[name].spec.wire,
                     point_mass_period=LOW_PERIOD,
                     start=vehicle.start,
                 )
@@ -198,21 +226,10 @@ class Fleet(Scenario[FleetSimulation]):
             spec_m = FleetWorldSpec(
                 world=base,
                 vehicles={n: v.start for n, v in self.vehicles.items()},
-                wire=wire,
+                wires={n: c.spec.wire for n, c in self.components.items()},
             )
             program = ParticipantProgram("multicosim.fleet.world:world", spec_m, "world")
             self.world_ids.append(self._add_own(world_placement.participant(program)))
-        self.components = {
-            name: PX4Component(
-                self._world_of(name),
-                self.fidelity,
-                name=name,
-                params=dict(vehicle.params),
-                placement=vehicle.placement if vehicle.placement is not None else self.placement,
-                firmware=vehicle.firmware,
-            )
-            for name, vehicle in self.vehicles.items()
-        }
         period = LOW_PERIOD if self.fidelity == "low" else base.period
         monitor_period = max(period, 0.05)
         truths = {name: world_topics(self._world_of(name)).truth for name in names}
@@ -233,11 +250,21 @@ class Fleet(Scenario[FleetSimulation]):
         first = None
         self.vehicle_ids: dict[str, NodeId[Any]] = {}
         for name, component in self.components.items():
-            node_id = self._add_own(component, anchor=first is None)
+            added: Any = component
+            if name in own:
+                assert component.firmware is not None
+                added = StandalonePX4(
+                    component.firmware,
+                    component.world,
+                    component.sitl_params(),
+                    resolve(component.placement, self.fidelity),
+                    name,
+                )
+            node_id = self._add_own(added, anchor=first is None)
             first = first or node_id
             self.vehicle_ids[name] = node_id
-        specs = {name: c.gcs_spec() for name, c in self.components.items()}
-        gcs_period = min(s.period for s in specs.values())
+        specs = {n: c.gcs_spec() for n, c in self.components.items() if n not in own}
+        gcs_period = min((s.period for s in specs.values()), default=0.05)
         self.gcs_id = self._add_own(
             InProcessFirmwareComponent(fleet_ground_station(specs, gcs_period), name="fleet.gcs")
         )
@@ -249,7 +276,11 @@ class Fleet(Scenario[FleetSimulation]):
     def start(self) -> FleetSimulation:
         """Start every vehicle's world and autopilot, the monitor and the ground station."""
         return FleetSimulation(
-            self._start_simulation(), self.vehicle_ids, self.gcs_id, self.monitor_id
+            self._start_simulation(),
+            self.vehicle_ids,
+            self.gcs_id,
+            self.monitor_id,
+            frozenset(n for n, v in self.vehicles.items() if v.own_links),
         )
 
 

@@ -18,17 +18,20 @@ __all__ = ["FleetWorldSpec", "world"]
 
 
 class FleetWorldSpec(msgspec.Struct, frozen=True, kw_only=True):
-    """The fleet's world: its configuration, each quadrotor's start by name, the wire its
-    sensors travel on."""
+    """The fleet's world: its configuration, each quadrotor's start by name, and the wire its
+    sensors travel on to its autopilot (native Structs, or MAVLink frames), by name."""
 
     world: WorldConfig
     vehicles: dict[str, Pose]
-    wire: Wire = "mavlink"
+    wires: dict[str, Wire]
 
 
 def world(spec: FleetWorldSpec) -> World:
     """The fleet's world participant (factory of ``multicosim participant``)."""
     return World(
         spec.world,
-        {name: (QuadrotorVehicle(wire=spec.wire), pose) for name, pose in spec.vehicles.items()},
+        {
+            name: (QuadrotorVehicle(wire=spec.wires[name]), pose)
+            for name, pose in spec.vehicles.items()
+        },
     )

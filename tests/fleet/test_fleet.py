@@ -1,16 +1,26 @@
-"""Several vehicles in one world: their missions at once, and what happens between them."""
+"""Several vehicles in one world: their missions at once, and what happens between them.
+
+With real PX4 (``px4_sitl``), several SITL instances fly one MuJoCo world in lockstep, each
+on its instance's ports: our ground station flies some, MAVSDK another.
+"""
 
 from __future__ import annotations
 
+import asyncio
 import math
+import threading
+from typing import Any
 
 import pytest
+from mavsdk_client import fly_mission
 
 import multicosim as mcs
 from multicosim import fleet, px4
 from multicosim.core.geo import LocalProjection
+from multicosim.mavlink.udp import API_PORT
 from multicosim.physics import Pose, WellClear
 from multicosim.quadrotor import NONE_IRIS
+from pytest_multicosim.px4 import RealPX4
 
 HOME = px4.Home()
 PROJ = LocalProjection(HOME.lat, HOME.lon)
@@ -23,11 +33,13 @@ def wp(north: float, east: float, alt: float) -> px4.Waypoint:
     return px4.Waypoint(lat, lon, alt)
 
 
-def head_on(alt_alpha: float, alt_bravo: float) -> dict[str, px4.Configuration]:
+def head_on(
+    alt_alpha: float, alt_bravo: float, time_limit: float = 90.0
+) -> dict[str, px4.Configuration]:
     """Alpha flies north to bravo's start, bravo south to alpha's, each at its altitude."""
     return {
-        "alpha": px4.Configuration([wp(APART, 0, alt_alpha)], end="land", time_limit=90.0),
-        "bravo": px4.Configuration([wp(0, 0, alt_bravo)], end="land", time_limit=90.0),
+        "alpha": px4.Configuration([wp(APART, 0, alt_alpha)], end="land", time_limit=time_limit),
+        "bravo": px4.Configuration([wp(0, 0, alt_bravo)], end="land", time_limit=time_limit),
     }
 
 
@@ -53,7 +65,7 @@ def _crossing(result: fleet.FleetResult, reach: float) -> tuple[float, float]:
         if round(s.time, 6) in by_time
     ]
     for i in range(2, len(distances)):
-        t, d = distances[i]
+        _, d = distances[i]
         if d <= reach:
             # How fast they closed before the contact (after it, they bounce).
             (t1, d1), (t0, d0) = distances[i - 1], distances[i - 2]
@@ -120,9 +132,7 @@ def test_well_clear_is_lost_where_its_thresholds_say(
 
 def test_overlapping_starts_are_refused_before_anything_starts() -> None:
     with pytest.raises(mcs.ConfigurationError) as info:
-        fleet.Fleet(
-            {"alpha": fleet.PX4Vehicle(), "bravo": fleet.PX4Vehicle(start=Pose(east=0.2))}
-        )
+        fleet.Fleet({"alpha": fleet.PX4Vehicle(), "bravo": fleet.PX4Vehicle(start=Pose(east=0.2))})
     assert info.value.field == "vehicles['bravo'].start"
     assert "'alpha'" in str(info.value)
 
@@ -153,3 +163,71 @@ def test_a_fleet_names_each_vehicles_topics_and_flies_missions_by_name() -> None
     assert set(result.results) == {"bravo"}
     assert result.results["bravo"].completed
     assert min(_true(s)[1] for s in result.results["bravo"].trajectory) > 29.0
+
+
+def test_two_real_px4_pass_each_other_at_their_altitudes(px4_sitl: RealPX4) -> None:
+    simulator = fleet.Fleet(
+        {
+            "alpha": fleet.PX4Vehicle(firmware=px4_sitl.sitl()),
+            "bravo": fleet.PX4Vehicle(firmware=px4_sitl.sitl(), start=Pose(north=APART)),
+        },
+        fidelity="medium",
+        seed=3,
+    )
+    with simulator.start() as simulation:
+        instances = {simulation.vehicles[n].instance for n in ("alpha", "bravo")}
+        result = simulation.fly(head_on(10.0, 16.0, time_limit=240.0))
+    assert len(instances) == 2, "two PX4s shared an instance"
+    assert result.completed, {n: r.reason for n, r in result.results.items()}
+    assert not result.encounter.collisions
+    approach = result.encounter.closest["alpha-bravo"]
+    # Real PX4 holds each altitude: they pass with its difference between them.
+    assert approach.separation == pytest.approx(6.0 - REACH, abs=1.5)
+    assert 0.0 < approach.north < APART
+
+
+@pytest.mark.xdist_group("px4-usual-ports")  # MAVSDK listens where PX4 SITL sends: 14540 + N
+def test_mavsdk_flies_one_real_px4_while_the_fleet_flies_the_other(px4_sitl: RealPX4) -> None:
+    pytest.importorskip("mavsdk.asyncio", reason="mavsdk (pip install mavsdk) not installed")
+    if px4_sitl.binary is None:
+        pytest.skip("PX4's usual ports on this host: a PX4 binary run as a process")
+    simulator = fleet.Fleet(
+        {
+            "alpha": fleet.PX4Vehicle(firmware=px4_sitl.sitl(), placement="process"),
+            "bravo": fleet.PX4Vehicle(
+                firmware=px4_sitl.sitl(),
+                placement="process",
+                start=Pose(east=40.0),
+                own_links=True,
+            ),
+        },
+        fidelity="medium",
+        seed=4,
+        realtime=2.0,  # MAVSDK waits on the wall clock
+    )
+    seen: dict[str, Any] = {}
+
+    with simulator.start() as simulation:
+        port = API_PORT + simulation.vehicles["bravo"].instance
+
+        def client() -> None:
+            try:
+                seen.update(asyncio.run(fly_mission(port, (HOME.lat, HOME.lon), [(30.0, 40.0)])))
+            except BaseException as exc:  # the test's thread reports it
+                seen["error"] = exc
+
+        thread = threading.Thread(target=client, daemon=True)
+        thread.start()
+        with pytest.raises(mcs.ConfigurationError, match="own links"):
+            simulation.fly({"bravo": head_on(10.0, 10.0)["bravo"]})
+        result = simulation.fly({"alpha": px4.Configuration([wp(30, 0, 10)], end="land")})
+        while thread.is_alive() and simulation.time < 600.0:
+            simulation.advance(0.5)
+        thread.join(timeout=10)
+    assert "error" not in seen, seen.get("error")
+    assert result.results["alpha"].completed, result.results["alpha"].reason
+    assert seen["autopilot"] == seen["expected_autopilot"]
+    assert seen["progress"] == (1, 1)
+    pos = seen["position"]
+    north, east = PROJ.project(pos.latitude_deg, pos.longitude_deg)
+    assert math.dist((north, east), (30.0, 40.0)) < 5.0, "MAVSDK's PX4 is not at its waypoint"

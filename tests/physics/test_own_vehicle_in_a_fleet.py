@@ -27,9 +27,7 @@ BIAS = 0.05  # rad on the pole's angle
 def test_a_cartpole_and_a_quadrotor_share_a_world_with_an_attack_recorded(
     tmp_path: Path,
 ) -> None:
-    config = WorldConfig(
-        noise=0.0, sensor_topics={"cart/state": RAW, "cart/push": cartpole.PUSH}
-    )
+    config = WorldConfig(noise=0.0, sensor_topics={"cart/state": RAW, "cart/push": cartpole.PUSH})
     vehicles = {"cart": cartpole.CartPole(), "quad": (QuadrotorVehicle(), Pose(east=5.0))}
     simulator = mcs.ProcessSimulator(seed=3)
     world_id = simulator.add(mcs.InProcessComponent(lambda: World(config, vehicles), "world"))
