@@ -27,7 +27,9 @@ from typing import TYPE_CHECKING
 from ..core.deps import lazy_exports
 
 _LAZY = {
-    **dict.fromkeys(("Fleet", "FleetSimulation", "PX4Vehicle"), ".scenario"),
+    **dict.fromkeys(
+        ("ArduPilotVehicle", "Fleet", "FleetSimulation", "Member", "PX4Vehicle"), ".scenario"
+    ),
     **dict.fromkeys(
         (
             "Approach",
@@ -43,12 +45,14 @@ _LAZY = {
 
 __all__ = [
     "Approach",
+    "ArduPilotVehicle",
     "Encounter",
     "Fleet",
     "FleetMissions",
     "FleetResult",
     "FleetSimulation",
     "LossOfWellClear",
+    "Member",
     "PX4Vehicle",
     "VehicleCollision",
 ]
@@ -62,6 +66,6 @@ if TYPE_CHECKING:
         LossOfWellClear,
         VehicleCollision,
     )
-    from .scenario import Fleet, FleetSimulation, PX4Vehicle
+    from .scenario import ArduPilotVehicle, Fleet, FleetSimulation, Member, PX4Vehicle
 
 __getattr__, __dir__ = lazy_exports(__name__, _LAZY, __all__)

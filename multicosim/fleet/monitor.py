@@ -2,15 +2,16 @@
 
 It reads each vehicle's ground truth (:class:`~multicosim.mavlink.hil.Truth`) every period,
 takes a :class:`~multicosim.physics.encounter.PairSample` of every pair, and records
-collisions: from MuJoCo's contacts where the world reports them (medium and high fidelity),
-else analytically, when two bodies' spheres come to touch between two samples at the
-velocities they had (low fidelity, where each vehicle flies a world of its own).
+collisions: from MuJoCo's contacts where the world reports them (two quadrotors at medium and
+high fidelity), else analytically, when two bodies' spheres come to touch between two samples
+at the velocities they had (low fidelity, where each vehicle flies a world of its own; a
+rover, whose body has no contact sphere).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from typing import TYPE_CHECKING
 
 from ..mavlink.hil import Truth
@@ -34,8 +35,9 @@ __all__ = ["EncounterMonitor"]
 class EncounterMonitor:
     """Samples every pair of ``truths`` (vehicle name -> truth topic) each ``period``.
 
-    ``radii`` are the bodies' radii (m); ``volume`` the well-clear volume judged;
-    ``analytic`` finds collisions from the states (else the world's contacts say them).
+    ``radii`` are the bodies' radii (m); ``volume`` the well-clear volume judged. A pair of
+    two ``touching`` vehicles (those whose contacts with each other the world reports) has
+    its collisions from those contacts; any other pair's are found from the states.
     """
 
     def __init__(
@@ -45,13 +47,13 @@ class EncounterMonitor:
         volume: WellClear,
         period: float,
         *,
-        analytic: bool,
+        touching: Collection[str] = (),
     ) -> None:
         self.period = period
         self.truths = dict(truths)
         self.radii = dict(radii)
         self.volume = volume
-        self.analytic = analytic
+        self.touching = frozenset(touching)
         self.pairs = pairs_of(list(truths))
         self.samples: dict[str, list[PairSample]] = {pair_name(a, b): [] for a, b in self.pairs}
         self.midpoints: dict[str, dict[float, tuple[float, float, float]]] = {
@@ -112,7 +114,7 @@ class EncounterMonitor:
                 (sa.east + sb.east) / 2,
                 -(sa.down + sb.down) / 2,
             )
-            if self.analytic:
+            if a not in self.touching or b not in self.touching:
                 self._analytic(a, b, sa, sb, reach, time)
         self._last = {n: s for n, s in states.items() if s is not None}
         self._last_time = time

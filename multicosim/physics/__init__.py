@@ -111,6 +111,7 @@ __all__ = [
     "first_contact",
     "geodetic_to_local",
     "load_model",
+    "load_spec",
     "local_to_geodetic",
 ]
 
@@ -123,11 +124,12 @@ _LAZY = {
     "Vehicle": ".world",
     "World": ".world",
     "load_model": ".world",
+    "load_spec": ".world",
 }
 
 if TYPE_CHECKING:
     from ..core.errors import PhysicsDivergedError
-    from .world import Bodied, MemberPhysics, Physics, Vehicle, World, load_model
+    from .world import Bodied, MemberPhysics, Physics, Vehicle, World, load_model, load_spec
 
 
 __getattr__, __dir__ = lazy_exports(__name__, _LAZY, __all__)

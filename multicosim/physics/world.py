@@ -36,7 +36,7 @@ if TYPE_CHECKING:
 require("mujoco", "mujoco")
 import mujoco  # noqa: E402 - after the check, which names the extra
 
-__all__ = ["Bodied", "MemberPhysics", "Physics", "Vehicle", "World", "load_model"]
+__all__ = ["Bodied", "MemberPhysics", "Physics", "Vehicle", "World", "load_model", "load_spec"]
 
 log = logging.getLogger(__name__)
 
@@ -255,6 +255,16 @@ def load_model(path: str | os.PathLike[str]) -> Any:
     """The ``MjModel`` of the MJCF file at ``path``; MulticosimError if it cannot be loaded."""
     try:
         return mujoco.MjModel.from_xml_path(os.fspath(path))
+    except ValueError as exc:
+        raise MulticosimError(f"could not load the MJCF model {path}: {exc}") from exc
+
+
+def load_spec(path: str | os.PathLike[str]) -> Any:
+    """The ``MjSpec`` of the MJCF file at ``path``, what a vehicle's ``load_model`` returns so
+    that a world can add obstacles and other vehicles; MulticosimError if it cannot be
+    loaded."""
+    try:
+        return mujoco.MjSpec.from_file(os.fspath(path))
     except ValueError as exc:
         raise MulticosimError(f"could not load the MJCF model {path}: {exc}") from exc
 

@@ -10,7 +10,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ..physics.world import Physics, World, load_model
+from ..physics.world import Physics, World, load_spec
 from ._messages import (
     COMMAND_TOPIC,
     MAX_STEERING,
@@ -47,8 +47,9 @@ class RoverVehicle:
         self._ctrl: list[int] = []
 
     def load_model(self) -> Any:
-        """The rover's MJCF model (``models/rover.xml``)."""
-        return load_model(self.model_path)
+        """The rover's MJCF model (``models/rover.xml``), as a spec: a world adds obstacles
+        and other vehicles to it."""
+        return load_spec(self.model_path)
 
     def setup(self, physics: Physics, ctx: StepContext, topics: Mapping[str, str]) -> None:
         """Find the actuators and subscribe to the command topic."""

@@ -9,13 +9,14 @@ from __future__ import annotations
 import asyncio
 import math
 import threading
+from itertools import combinations
 from typing import Any
 
 import pytest
 from mavsdk_client import fly_mission
 
 import multicosim as mcs
-from multicosim import fleet, px4
+from multicosim import ardupilot, fleet, px4
 from multicosim.core.geo import LocalProjection
 from multicosim.mavlink.udp import API_PORT
 from multicosim.physics import Pose, WellClear
@@ -231,3 +232,71 @@ def test_mavsdk_flies_one_real_px4_while_the_fleet_flies_the_other(px4_sitl: Rea
     pos = seen["position"]
     north, east = PROJ.project(pos.latitude_deg, pos.longitude_deg)
     assert math.dist((north, east), (30.0, 40.0)) < 5.0, "MAVSDK's PX4 is not at its waypoint"
+
+
+@pytest.mark.xdist_group("px4-usual-ports")  # MAVSDK listens where PX4 SITL sends: 14540 + N
+def test_every_kind_of_autopilot_flies_one_world_while_mavsdk_flies_a_real_px4(
+    px4_sitl: RealPX4, ardupilot_dir: str
+) -> None:
+    """Two real PX4 (MAVSDK flies the second, on its instance's usual port), the built-in
+    autopilot and ArduCopter each fly their own mission, ArduRover drives below them."""
+    pytest.importorskip("mavsdk.asyncio", reason="mavsdk (pip install mavsdk) not installed")
+    if px4_sitl.binary is None:
+        pytest.skip("PX4's usual ports on this host: a PX4 binary run as a process")
+    real = px4_sitl.sitl()
+    copter = ardupilot.SITL(directory=ardupilot_dir)
+    simulator = fleet.Fleet(
+        {
+            "px4": fleet.PX4Vehicle(firmware=real, placement="process"),
+            "mavsdk": fleet.PX4Vehicle(
+                firmware=real, placement="process", start=Pose(east=15.0), own_links=True
+            ),
+            "builtin": fleet.PX4Vehicle(start=Pose(east=30.0)),
+            "copter": fleet.ArduPilotVehicle(firmware=copter, start=Pose(east=45.0)),
+            "rover": fleet.ArduPilotVehicle(firmware=copter, kind="rover", start=Pose(east=-15.0)),
+        },
+        fidelity="medium",
+        seed=5,
+        realtime=1.0,  # MAVSDK waits on the wall clock
+    )
+    seen: dict[str, Any] = {}
+    missions = {
+        name: px4.Configuration([wp(40, east, 10)], end="land", time_limit=300.0)
+        for name, east in (("px4", 0.0), ("builtin", 30.0), ("copter", 45.0))
+    }
+    # The rover drives north and back east, under the vehicles' paths.
+    missions["rover"] = px4.Configuration(
+        [wp(40, -15, 0), wp(40, 30, 0)], cruise_speed=3.0, time_limit=300.0
+    )
+    with simulator.start() as simulation:
+        instances = {n: simulation.vehicles[n].instance for n in ("px4", "mavsdk")}
+        port = API_PORT + instances["mavsdk"]
+
+        def client() -> None:
+            try:
+                out = fly_mission(port, (HOME.lat, HOME.lon), [(40.0, 15.0)], timeout=240.0)
+                seen.update(asyncio.run(out))
+            except BaseException as exc:  # the test's thread reports it
+                seen["error"] = exc
+
+        thread = threading.Thread(target=client, daemon=True)
+        thread.start()
+        result = simulation.fly(missions, timeout=1800.0)  # paced at real time
+        while thread.is_alive() and simulation.time < 900.0:
+            simulation.advance(0.5)
+        thread.join(timeout=10)
+    assert "error" not in seen, seen.get("error")
+    assert len(set(instances.values())) == 2
+    for name, flown in result.results.items():
+        assert flown.completed, (name, flown.reason)
+    end = _true(result.results["rover"].trajectory[-1])
+    assert math.dist(end[:2], (40.0, 30.0)) < 3.0, "the rover did not reach its last point"
+    assert seen["progress"] == (1, 1)
+    pos = seen["position"]
+    north, east = PROJ.project(pos.latitude_deg, pos.longitude_deg)
+    assert math.dist((north, east), (40.0, 15.0)) < 5.0, "MAVSDK's PX4 is not at its waypoint"
+    # Every pair was measured on the one clock, the rover's with the vehicles above it.
+    names = list(simulator.vehicles)
+    assert set(result.encounter.closest) == {f"{a}-{b}" for a, b in combinations(names, 2)}
+    assert min(s.vertical for s in result.encounter.pairs["builtin-rover"]) < 1.0
+    assert not result.encounter.collisions
