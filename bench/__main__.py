@@ -7,7 +7,8 @@
     python -m bench --smoke          # does every benchmark still run? (CI; writes nothing)
 
 The falsification benchmark takes longer and keeps its own table on that page:
-``python bench/bench_search.py --docs``.
+``python bench/bench_search.py --docs``; so does the F-16's (ARCH-COMP "F16", on the how-to
+page of the F-16): ``python bench/bench_f16.py --docs``.
 
 Each benchmark runs as its own process (``bench/bench_NAME.py``, which writes
 ``bench/results/NAME.json``), one after the other, so that none inherits another's heap,
@@ -62,6 +63,8 @@ SEARCH_SMOKE = (
     "--seeds", "1", "--rate-samples", "20", "--real-seeds", "0",
     "--mf-seeds", "1", "--mf-budget", "10", "--mf-problems", "rover-lane,px4-altitude",
 )  # fmt: skip
+# ... and the F-16 benchmark: five simulations per search, one seed, one timed flight.
+F16_SMOKE = ("--budget", "5", "--seeds", "1", "--repeats", "1")
 
 
 def run_benchmark(
@@ -911,10 +914,11 @@ def smoke() -> int:
     """Run every benchmark briefly into a temporary directory; 1 if any of them failed."""
     failed = []
     with tempfile.TemporaryDirectory(prefix="mcs-bench-") as tmp:
-        for i, name in enumerate((*BENCHMARKS, "search"), 1):
-            print(f"[{i}/{len(BENCHMARKS) + 1}] {name} ...", end=" ", flush=True)
-            if name == "search":
-                result = run_benchmark(name, False, Path(tmp), SEARCH_SMOKE)
+        extra = {"search": SEARCH_SMOKE, "f16": F16_SMOKE}
+        for i, name in enumerate((*BENCHMARKS, *extra), 1):
+            print(f"[{i}/{len(BENCHMARKS) + len(extra)}] {name} ...", end=" ", flush=True)
+            if name in extra:
+                result = run_benchmark(name, False, Path(tmp), extra[name])
             else:
                 result = run_benchmark(name, True, Path(tmp))
             if "error" in result:

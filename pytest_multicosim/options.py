@@ -132,6 +132,14 @@ def add_options(parser: pytest.Parser) -> None:
         "bin/ardurover, params/; env MCS_ARDUPILOT_DIR)",
     )
     group.addoption(
+        "--mcs-aerobench-dir",
+        dest="mcs_aerobench_dir",
+        default=None,
+        help="fly the F-16 fixtures on AeroBench from this directory (AeroBenchVVPython, with "
+        "code/aerobench/; env MCS_AEROBENCH_DIR; default: ../shared/aerobench beside the "
+        "project)",
+    )
+    group.addoption(
         "--mcs-ray",
         dest="mcs_ray",
         default=None,
@@ -146,6 +154,7 @@ def add_options(parser: pytest.Parser) -> None:
     parser.addini("mcs_px4_image", "default for --mcs-px4-image", default="")
     parser.addini("mcs_px4_binary", "default for --mcs-px4-binary", default="")
     parser.addini("mcs_ardupilot_dir", "default for --mcs-ardupilot-dir", default="")
+    parser.addini("mcs_aerobench_dir", "default for --mcs-aerobench-dir", default="")
     parser.addini("mcs_ray", "default for --mcs-ray", default="")
 
 

@@ -66,6 +66,8 @@ LISTINGS = (
     "def test_altitude(px4_simulation):",
     "def test_the_corridor_keeps_clear_of_the_mast",
     'px4.Configuration.from_plan("tests/data/survey_site.plan")',
+    'AEROBENCH = "../shared/aerobench"',
+    "def test_the_gcas_pulls_out_of_the_dive",
 )
 
 _FENCE = re.compile(r"^(?P<indent> *)```python\n(?P<code>.*?)^(?P=indent)```", re.M | re.S)
@@ -255,6 +257,24 @@ def test_fmu_pytest_listing_passes(
     result.assert_outcomes(passed=2)
 
 
+def test_aerobench_listing_runs(aerobench: Any) -> None:
+    listing = 'AEROBENCH = "../shared/aerobench"'
+    code = _block(listing).replace('"../shared/aerobench"', repr(str(aerobench.root)))
+    namespace = _run(listing, code=code)
+    counterexample = namespace["result"].counterexample
+    assert counterexample.results["medium"].evaluation.robustness < 0
+
+
+def test_f16_pytest_listing_passes(
+    pytester: pytest.Pytester, aerobench: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("MCS_AEROBENCH_DIR", str(aerobench.root))
+    pytester.makepyfile(_block("def test_the_gcas_pulls_out_of_the_dive"))
+    # In a process of its own: scipy cannot be imported again by a second in-process session.
+    result = pytester.runpytest_subprocess("--mcs-fidelity=low,medium")
+    result.assert_outcomes(passed=2)
+
+
 def test_px4_listing_runs() -> None:
     result = _run('simulator = px4.PX4(world, fidelity="low")')["result"]
     assert result.completed, result.reason
@@ -387,6 +407,7 @@ API = (
     "multicosim.px4",
     "multicosim.ardupilot",
     "multicosim.rover",
+    "multicosim.f16",
     "multicosim.attacks",
     "multicosim.search.requirements",
     "multicosim.search.falsify",

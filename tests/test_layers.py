@@ -260,17 +260,16 @@ _PX4_OWN = {
 def _px4_in(module: str) -> Iterator[str]:
     """What of PX4's own ``module`` names: its modes, procedure, simulator or topics."""
     for node in ast.walk(_tree(module)):
-        name = (
-            node.id
-            if isinstance(node, ast.Name)
-            else node.attr
-            if isinstance(node, ast.Attribute)
-            else node.name
-            if isinstance(node, ast.ClassDef | ast.FunctionDef)
-            else None
-        )
-        if name in _PX4_OWN:
-            yield f"{MODULES[module].relative_to(ROOT)}:{node.lineno} {name}"
+        if isinstance(node, ast.Name | ast.Attribute | ast.ClassDef | ast.FunctionDef):
+            name = (
+                node.id
+                if isinstance(node, ast.Name)
+                else node.attr
+                if isinstance(node, ast.Attribute)
+                else node.name
+            )
+            if name in _PX4_OWN:
+                yield f"{MODULES[module].relative_to(ROOT)}:{node.lineno} {name}"
         if (
             isinstance(node, ast.Constant)
             and isinstance(node.value, str)

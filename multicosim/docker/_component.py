@@ -49,6 +49,26 @@ def _check_env(env: object) -> None:
         raise ConfigurationError("env", env, "a mapping of str to str")
 
 
+def _check_mounts(mounts: object) -> None:
+    allowed = (
+        "a mapping of an existing absolute path on this machine to an absolute path in the "
+        "container, neither with ':' (mounted read-only)"
+    )
+    if not isinstance(mounts, Mapping):
+        raise ConfigurationError("mounts", mounts, allowed)
+    for host, inside in mounts.items():
+        # The engine takes a bind as "host:container:mode": a ':' in a path would split it.
+        ok = (
+            isinstance(host, str)
+            and isinstance(inside, str)
+            and Path(host).is_absolute()
+            and inside.startswith("/")
+            and ":" not in host + inside
+        )
+        if not ok or not Path(host).exists():
+            raise ConfigurationError("mounts", {host: inside}, allowed)
+
+
 def _launch(
     environment: ContainerEnvironment,
     *,
@@ -58,6 +78,7 @@ def _launch(
     env: Mapping[str, str],
     publish: Mapping[str, int | None],
     share_with: ContainerNode | None,
+    mounts: Mapping[str, str],
     handshake: bool,
     start_timeout: float,
     stop_timeout: float,
@@ -78,6 +99,7 @@ def _launch(
     host_config = api.create_host_config(
         network_mode=network_mode,
         port_bindings={key: ("127.0.0.1", hp) for key, hp in publish.items()} or None,
+        binds={host: {"bind": inside, "mode": "ro"} for host, inside in mounts.items()} or None,
         **limits.host_config(),
     )
     order = environment.next_order()
@@ -153,7 +175,8 @@ class ContainerComponent:
     ``command`` runs in ``image`` (which must exist locally: images are never pulled).
     ``ready="handshake"`` (default) waits until the program joins the simulation (programs
     built with multicosim do); ``ready="started"`` is for arbitrary commands. ``ports`` are
-    published on random loopback host ports (see ``ContainerNode.host_port``). On the network
+    published on random loopback host ports (see ``ContainerNode.host_port``). ``mounts``
+    maps paths of this machine to paths in the container, mounted read-only. On the network
     the container is reachable by the component's name.
     """
 
@@ -166,11 +189,13 @@ class ContainerComponent:
     start_timeout: float = DEFAULT_START_TIMEOUT
     stop_timeout: float = DEFAULT_STOP_TIMEOUT
     limits: ContainerLimits = ContainerLimits()
+    mounts: Mapping[str, str] = dataclasses.field(default_factory=dict)
 
     def __post_init__(self) -> None:
         _check_image(self.image)
         args = split_command(self.command)
         _check_env(self.env)
+        _check_mounts(self.mounts)
         _check_limits(self.limits)
         if isinstance(self.ports, str | int):
             raise ConfigurationError("ports", self.ports, "a sequence of ports, e.g. (14540,)")
@@ -203,6 +228,7 @@ class ContainerComponent:
             env=self.env,
             publish={_port_key(p): None for p in self.ports},
             share_with=share,
+            mounts=self.mounts,
             handshake=self.ready == "handshake",
             start_timeout=self.start_timeout,
             stop_timeout=self.stop_timeout,

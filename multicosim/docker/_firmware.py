@@ -123,6 +123,7 @@ class ContainerFirmwareComponent(Generic[MsgT, ReplyT]):
             env=self.env,
             publish={key: self.host_port},
             share_with=None,
+            mounts={},
             handshake=True,
             start_timeout=self.start_timeout,
             stop_timeout=self.stop_timeout,

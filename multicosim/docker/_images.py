@@ -48,7 +48,7 @@ UPSTREAM_BASE = "python:3.11-slim"
 """The Dockerfiles' default base, used when present locally."""
 
 # The runtime image carries these extras of the package (pinned in pyproject.toml).
-RUNTIME_EXTRAS = ("mujoco", "mavlink", "fmi")
+RUNTIME_EXTRAS = ("mujoco", "mavlink", "fmi", "f16")
 
 LABEL_INPUTS = "multicosim.inputs"
 _BUILD_LOCK = Path(tempfile.gettempdir()) / f"multicosim-{os.getuid()}-build.lock"

@@ -79,6 +79,7 @@ class ContainerParticipant:
             participant_command(program.factory, config),
             name=program.name,
             start_timeout=program.start_timeout,
+            mounts=program.mounts,
         ).start(container_env)
 
 

@@ -41,6 +41,9 @@ class ParticipantProgram:
     configuration a program on this machine gets (default: ``config``); ``image`` the image
     and configuration a container runs (default: the runtime image and ``config``), and
     ``images`` the images it is known to need then (checked before a run starts).
+    ``mounts`` maps directories (or files) of this machine to where a container sees them,
+    read-only: what a program reads from the user's disk (models loaded from a path) reaches
+    it there; placements that run programs on this machine need none.
     """
 
     factory: str
@@ -51,6 +54,7 @@ class ParticipantProgram:
     image: Callable[[], tuple[str, Any]] | None = None
     images: tuple[str, ...] = ()
     start_timeout: float = DEFAULT_START_TIMEOUT
+    mounts: Mapping[str, str] = dataclasses.field(default_factory=dict)
 
 
 @dataclasses.dataclass(frozen=True)

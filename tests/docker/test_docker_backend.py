@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import tempfile
+import time
 from pathlib import Path
 from typing import Any
 
@@ -183,6 +185,33 @@ def test_container_component_publishes_ports_on_loopback(engine: Any, image: str
         assert pong == wire.Pong(1, "echo", "Echo")
         with pytest.raises(mcs.ConfigurationError, match="container_port"):
             node.host_port(6001)
+
+
+def test_mounts_are_read_only_in_the_container(engine: Any, image: str) -> None:
+    # The container's user is none of this machine's: what it reads must be readable by all
+    # (pytest's own temporary directories are not).
+    with tempfile.TemporaryDirectory() as name:
+        shared = Path(name)
+        shared.chmod(0o755)
+        (shared / "model.txt").write_text("from the host\n")
+        (shared / "model.txt").chmod(0o644)
+        script = "cat /data/model.txt; touch /data/written 2>/dev/null || echo read-only; sleep 60"
+        sim = ContainerSimulator()
+        component = ContainerComponent(
+            image, ["sh", "-c", script], name="reader", ready="started", mounts={name: "/data"}
+        )
+        nid = sim.add(component)
+        with sim.start() as simulation:
+            node = simulation.get(nid)
+            (mount,) = engine.api.inspect_container(node.id)["Mounts"]
+            assert (mount["Source"], mount["Destination"], mount["RW"]) == (name, "/data", False)
+            # The program reads what the host holds, and cannot write there.
+            for _ in range(200):
+                if "read-only" in node.logs():
+                    break
+                time.sleep(0.05)
+            assert node.logs().splitlines()[:2] == ["from the host", "read-only"]
+        assert not (shared / "written").exists()
 
 
 def test_run_dir_keeps_container_logs(engine: Any, image: str, tmp_path: Path) -> None:

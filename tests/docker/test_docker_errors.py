@@ -219,6 +219,11 @@ def test_engine_not_running(monkeypatch: pytest.MonkeyPatch, tmp_path: Any) -> N
             ),
             "name",
         ),
+        (lambda: ContainerComponent("img", "a", mounts={"relative": "/x"}), "mounts"),
+        (lambda: ContainerComponent("img", "a", mounts={"/no/such/dir": "/x"}), "mounts"),
+        (lambda: ContainerComponent("img", "a", mounts={"/tmp": "inside"}), "mounts"),
+        (lambda: ContainerComponent("img", "a", mounts={"/tmp": "/a:b"}), "mounts"),
+        (lambda: ContainerComponent("img", "a", mounts=["/tmp"]), "mounts"),  # type: ignore[arg-type]
         (lambda: ContainerSimulator(seed=-1), "seed"),
         (lambda: ContainerSimulator(realtime=0), "realtime"),
     ],

@@ -97,14 +97,17 @@ def test_our_libraries_are_registered_the_same_way() -> None:
         "ardupilot": "pytest_multicosim.ardupilot",
         "gps_noise": "pytest_multicosim.gps_noise",
         "fmi": "pytest_multicosim.fmi",
+        "f16": "pytest_multicosim.f16",
     }.items() <= named.items()
 
 
 def test_our_libraries_are_loaded(pytester: pytest.Pytester) -> None:
     pytester.makepyfile(
         test_probe="""
-        def test_probe(pytestconfig, rover_noise, px4_params, ardupilot_params, gps_noise, fmu):
-            for name in ("rover", "px4", "ardupilot", "gps_noise", "fmi"):
+        def test_probe(
+            pytestconfig, rover_noise, px4_params, ardupilot_params, gps_noise, fmu, f16_initial
+        ):
+            for name in ("rover", "px4", "ardupilot", "gps_noise", "fmi", "f16"):
                 assert pytestconfig.pluginmanager.has_plugin(f"pytest_multicosim.{name}")
         """
     )
