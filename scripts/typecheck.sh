@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Type-check the packages (strict) and the tests and scenarios. Test directories are not
-# packages (pytest puts each on sys.path), so each is checked with itself on the path.
+# packages (pytest puts each on sys.path, and tests/ for its shared helpers), so each is
+# checked with itself and tests/ on the path.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 mypy=${MYPY:-mypy}
@@ -14,6 +15,6 @@ for dir in tests/*/ scenarios/; do
     dir=${dir%/}
     files=("$dir"/*.py)
     [ -e "${files[0]}" ] || continue
-    MYPYPATH="$dir" "$mypy" --no-namespace-packages "${files[@]}" || status=1
+    MYPYPATH="$dir:tests" "$mypy" --no-namespace-packages "${files[@]}" || status=1
 done
 exit "$status"

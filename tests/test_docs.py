@@ -68,6 +68,9 @@ LISTINGS = (
     'px4.Configuration.from_plan("tests/data/survey_site.plan")',
     'AEROBENCH = "../shared/aerobench"',
     "def test_the_gcas_pulls_out_of_the_dive",
+    'fleet.PX4Vehicle(start=Pose(north=80.0))},\n    fidelity="low"',
+    "def test_crossing_drones_lose_well_clear_but_never_touch",
+    "real_ardupilot = ardupilot.SITL(",
 )
 
 _FENCE = re.compile(r"^(?P<indent> *)```python\n(?P<code>.*?)^(?P=indent)```", re.M | re.S)
@@ -352,6 +355,33 @@ def test_search_listing_runs() -> None:
     assert result.transfer_rates["medium"] == 1.0
 
 
+def test_fleet_listing_runs() -> None:
+    result = _run('fleet.PX4Vehicle(start=Pose(north=80.0))},\n    fidelity="low"')["result"]
+    approach = result.encounter.closest["alpha-bravo"]
+    # They pass at their altitudes' difference, less their bodies' radii.
+    assert approach.separation == pytest.approx(4.5, abs=0.3)
+
+
+def test_fleet_pytest_listing_passes(pytester: pytest.Pytester) -> None:
+    pytester.makepyfile(_block("def test_crossing_drones_lose_well_clear_but_never_touch"))
+    # In a process of its own: an in-process run would drop the fleet's modules (and the
+    # PX4 classes they import) from sys.modules after it, under the other tests' feet.
+    result = pytester.runpytest_subprocess("--mcs-fidelity=low,medium")
+    result.assert_outcomes(passed=2)
+
+
+def test_fleet_of_every_autopilot_listing_runs(px4_sitl: RealPX4, ardupilot_dir: str) -> None:
+    if px4_sitl.binary is None:
+        pytest.skip("the listing runs a PX4 binary")
+    code = _block("real_ardupilot = ardupilot.SITL(")
+    code = code.replace(PX4_PLACEHOLDER, repr(px4_sitl.binary))
+    code = code.replace(ARDUPILOT_PLACEHOLDER, repr(ardupilot_dir))
+    result = _run("real_ardupilot = ardupilot.SITL(", code=code)["result"]
+    assert result.results["px4"].firmware_version == "1.15.4"
+    assert result.results["copter"].firmware_version == "4.5.6"
+    assert not result.encounter.collisions
+
+
 def test_docker_listing_runs() -> None:
     require_docker()
     from multicosim.docker import RUNTIME_IMAGE, build_images
@@ -408,6 +438,7 @@ API = (
     "multicosim.ardupilot",
     "multicosim.rover",
     "multicosim.f16",
+    "multicosim.fleet",
     "multicosim.attacks",
     "multicosim.search.requirements",
     "multicosim.search.falsify",

@@ -43,7 +43,9 @@ _LAZY = {
     "Fidelity": "._simulator",
     "ArduRover": "._simulator",
     "SITL": ".launch",
+    "boot": "._simulator",
     "default_world": "._simulator",
+    "frame_period": "._simulator",
 }
 
 __all__ = [
@@ -63,7 +65,9 @@ __all__ = [
     "Waypoint",
     "WaypointReached",
     "WorldConfig",
+    "boot",
     "default_world",
+    "frame_period",
     "read_params",
 ]
 
@@ -76,7 +80,9 @@ if TYPE_CHECKING:
         ArduPilotSimulation,
         ArduRover,
         Fidelity,
+        boot,
         default_world,
+        frame_period,
     )
     from .launch import SITL
 

@@ -37,7 +37,7 @@ from ..physics.config import WorldConfig
 from ..placement import Placement, Scenario, ScenarioSimulation, resolve
 from ..placement.firmware import preflight_program
 from ..rover import MAX_SPEED
-from ._bridge import DOWNLINK, SERVO_TOPIC, TRUTH_TOPIC, UPLINK
+from ._bridge import SERVO_TOPIC, TRUTH_TOPIC
 from ._frames import FRAME_RATE, copter_params, rover_params
 from .launch import (
     NO_RC_RECEIVER,
@@ -61,6 +61,7 @@ __all__ = [
     "ArduPilotSimulation",
     "ArduRover",
     "Fidelity",
+    "boot",
     "default_world",
     "frame_period",
 ]
@@ -124,7 +125,7 @@ class WorldComponent:
 
         def factory() -> Any:
             from ..physics.world import World
-            from ._vehicles import ArduCopterVehicle, ArduRoverVehicle
+            from .vehicles import ArduCopterVehicle, ArduRoverVehicle
 
             plugin = ArduCopterVehicle() if vehicle == "copter" else ArduRoverVehicle()
             return World(world, plugin)
@@ -223,9 +224,36 @@ class ArduPilotComponent:
 
         return CopterProcedure() if self.vehicle == "copter" else RoverProcedure()
 
+    @property
+    def links(self) -> tuple[str, str]:
+        """Its MAVLink topics (uplink, downlink), under its name (``ardupilot/mavlink/up``)."""
+        return f"{self.name}/mavlink/up", f"{self.name}/mavlink/down"
+
+    @property
+    def topics(self) -> tuple[str, str]:
+        """The world's topics it exchanges through its bridge: truth and servo outputs."""
+        return self.world.topic("truth", TRUTH_TOPIC), self.world.topic("servos", SERVO_TOPIC)
+
+    def gcs_spec(self) -> GcsSpec:
+        """What a ground station flying this ArduPilot needs: its link, the world's truth,
+        the telemetry period and ArduPilot's longer preflight."""
+        uplink, downlink = self.links
+        return GcsSpec(
+            uplink=uplink,
+            downlink=downlink,
+            truth=self.topics[0],
+            period=1.0 / self.telemetry_rate,
+            # ArduPilot's estimator needs its GPS checks and gyro bias learnt (about 40
+            # simulated seconds) before it has a position and arms.
+            preflight_timeout=180.0,
+            dialect="ardupilotmega",
+        )
+
     def start(self, environment: LocalEnvironment) -> ArduPilotNode:
         """Start ArduPilot and its bridge, then the ground station."""
         name = self.name
+        uplink, downlink = self.links
+        truth, servos = self.topics
         group = start_ardupilot(
             self.firmware,
             self.vehicle,
@@ -235,29 +263,44 @@ class ArduPilotComponent:
             period=frame_period(self.world),
             home=self.world.home,
             params=self.boot_params(),
-            truth=self.world.topic("truth", TRUTH_TOPIC),
-            servos=SERVO_TOPIC,
-            uplink=UPLINK,
-            downlink=DOWNLINK,
+            truth=truth,
+            servos=servos,
+            uplink=uplink,
+            downlink=downlink,
         )
         try:
-            spec = GcsSpec(
-                uplink=UPLINK,
-                downlink=DOWNLINK,
-                truth=self.world.topic("truth", TRUTH_TOPIC),
-                period=1.0 / self.telemetry_rate,
-                # ArduPilot's estimator needs its GPS checks and gyro bias learnt (about 40
-                # simulated seconds) before it has a position and arms.
-                preflight_timeout=180.0,
-                dialect="ardupilotmega",
-            )
             gcs = InProcessFirmwareComponent(
-                ground_station(spec, self.procedure(), f"{name}.gcs"), name=f"{name}.gcs"
+                ground_station(self.gcs_spec(), self.procedure(), f"{name}.gcs"),
+                name=f"{name}.gcs",
             ).start(environment)
         except BaseException:
             group.stop()
             raise
         return ArduPilotNode(name, gcs, group, self)
+
+
+def boot(simulation: ScenarioSimulation, node: ArduPilotNode, limit: float = BOOT_LIMIT) -> None:
+    """Run ``simulation`` until ``node``'s ArduPilot has booted: its MAVLink link speaks.
+
+    ArduPilot's first physics step comes while it loads its parameters: left waiting there
+    for seconds of wall time (while another simulation runs, say), it hangs in its start-up.
+    So a simulation with ArduPilot runs it through its start-up (a few tenths of a simulated
+    second) before handing the simulation out. NodeStartError, with its output tail, if it
+    has not spoken MAVLink within ``limit`` simulated seconds.
+    """
+    autopilot = node.firmware_nodes
+    bridge = autopilot.bridge
+    assert bridge is not None
+    deadline = simulation.time + limit
+    while not bridge.linked:
+        if simulation.time >= deadline:
+            process = autopilot.program
+            raise NodeStartError(
+                node.name,
+                f"sent no MAVLink within {limit:g} simulated seconds of its start",
+                log_tail=process.log_tail() if process is not None else "",
+            )
+        simulation.advance(BOOT_STEP)
 
 
 class ArduPilotSimulation(ScenarioSimulation):
@@ -274,27 +317,8 @@ class ArduPilotSimulation(ScenarioSimulation):
         self.world: Node = simulation.get(world_id)
 
     def boot(self, limit: float = BOOT_LIMIT) -> None:
-        """Run the simulation until ArduPilot has booted: its MAVLink link speaks.
-
-        ArduPilot's first physics step comes while it loads its parameters: left waiting
-        there for seconds of wall time (while another simulation runs, say), it hangs in its
-        start-up. So the simulators run it through its start-up (a few tenths of a
-        simulated second) before handing the simulation out. NodeStartError, with its output
-        tail, if it has not spoken MAVLink within ``limit`` simulated seconds.
-        """
-        autopilot = self.firmware.firmware_nodes
-        bridge = autopilot.bridge
-        assert bridge is not None
-        deadline = self.time + limit
-        while not bridge.linked:
-            if self.time >= deadline:
-                process = autopilot.program
-                raise NodeStartError(
-                    self.firmware.name,
-                    f"sent no MAVLink within {limit:g} simulated seconds of its start",
-                    log_tail=process.log_tail() if process is not None else "",
-                )
-            self.advance(BOOT_STEP)
+        """Run the simulation until ArduPilot has booted (see :func:`boot`)."""
+        boot(self, self.firmware, limit)
 
     @property
     def home(self) -> Home:
@@ -307,15 +331,16 @@ class ArduPilotSimulation(ScenarioSimulation):
         from ..mavlink.trace import mission_trace
         from ._bridge import ServoOutputs
 
-        world = self.firmware.component.world
+        component = self.firmware.component
+        (uplink, downlink), (truth, servos) = component.links, component.topics
         return mission_trace(
             vehicle=self.firmware.name,
-            uplink=UPLINK,
-            downlink=DOWNLINK,
-            truth=world.topic("truth", TRUTH_TOPIC),
-            home=world.home,
-            obstacles=world.obstacles,
-            types={SERVO_TOPIC: ServoOutputs},
+            uplink=uplink,
+            downlink=downlink,
+            truth=truth,
+            home=component.world.home,
+            obstacles=component.world.obstacles,
+            types={servos: ServoOutputs},
             dialect_name="ardupilotmega",
         )
 
@@ -399,8 +424,8 @@ class _ArduPilotSimulator(Scenario[ArduPilotSimulation]):
             sensor=sensor,
             models=tuple(models),
             home=self.world.home,
-            uplink=UPLINK,
-            downlink=DOWNLINK,
+            uplink=self._firmware.links[0],
+            downlink=self._firmware.links[1],
         )
         component = FaultsComponent(config, name=name or f"{config.sensor}-faults")
         self.add(component)

@@ -127,6 +127,9 @@ class SimulatedFaults:
         delay_name, delay_default = spec["delay"]
         self._baseline = {delay_name: delay_default}  # ArduPilot's values without faults
         self._pending: dict[str, tuple[float, float, int]] = {}  # value, sent at, tries
+        # ArduPilot's system id: instance N is system N + 1 (learnt from its heartbeat;
+        # a PARAM_SET sent before it arrives is resent when unconfirmed).
+        self._target: tuple[int, int] | None = None
         self.updates = 0
 
     def setup(self, ctx: StepContext) -> None:
@@ -179,7 +182,8 @@ class SimulatedFaults:
 
     def _set(self, ctx: StepContext, name: str, value: float, tries: int) -> None:
         mav = self._mav
-        msg = mav.param_set_encode(1, 1, name.encode(), value, 9)
+        system, component = self._target or (1, 1)
+        msg = mav.param_set_encode(system, component, name.encode(), value, 9)
         ctx.publish(self.config.uplink, MavlinkPacket(bytes(msg.pack(mav))))
         mav.seq = (mav.seq + 1) & 0xFF
         self._sent[name] = value
@@ -188,11 +192,14 @@ class SimulatedFaults:
 
     def _confirm(self) -> None:
         down = self._down
-        if down is None or not down.fresh or not self._pending:
+        if down is None or not down.fresh or (self._target is not None and not self._pending):
             return
         for packet in down.messages:
             for m in decode_frames(self._mav, packet.data):
-                if m.get_type() != "PARAM_VALUE":
+                kind = m.get_type()
+                if kind == "HEARTBEAT" and self._target is None:
+                    self._target = (m.get_srcSystem(), m.get_srcComponent())
+                if kind != "PARAM_VALUE":
                     continue
                 name = m.param_id if isinstance(m.param_id, str) else m.param_id.decode()
                 name = name.split("\0", 1)[0]

@@ -335,9 +335,6 @@ def container_command(
 # -- starting it ----------------------------------------------------------------------------
 
 
-# -- starting it ----------------------------------------------------------------------------
-
-
 class ArduPilotNodes(FirmwareNodes):
     """ArduPilot's program with its bridge: stopped as one, in reverse start order."""
 
@@ -454,9 +451,12 @@ class ArduPilotLaunch:
         """ArduPilot in ``workdir`` through the guard (a directory), or its image."""
         assert self.bridge is not None
         sitl, port = self.sitl, self.bridge.mavlink_port
+        # Instance N is system N + 1, as ArduPilot's multi-vehicle SITL numbers them (a
+        # system id the user sets wins).
+        params = {"SYSID_THISMAV": float(self.instance + 1), **self._params}
         command = None
         if sitl.directory is not None:
-            overlay = write_overlay(workdir, self._params)
+            overlay = write_overlay(workdir, params)
             args = launch_command(
                 sitl.binary(self.vehicle),
                 [sitl.defaults(self.vehicle), overlay],
@@ -472,7 +472,7 @@ class ArduPilotLaunch:
             sim_host=endpoint.host,
             mavlink_port=port,
             home=self._home,
-            params=self._params,
+            params=params,
         )
         return ProgramSpec(
             name=self.name,

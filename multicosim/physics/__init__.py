@@ -62,15 +62,29 @@ from .config import (
     Solver,
     WorldConfig,
 )
+from .encounter import (
+    ASTM_F3442,
+    DO_365,
+    NMAC,
+    PairSample,
+    VehicleContact,
+    WellClear,
+    closest_approach,
+    first_contact,
+)
+from .fleet import Pose
 from .obstacles import Box, Cylinder, Obstacle, Proximity
 from .wind import LIGHT, MODERATE, SEVERE, Body, Gust, Wind
 
 __all__ = [
+    "ASTM_F3442",
     "DEFAULT_HOME",
     "DEFAULT_MAGNETIC_FIELD",
+    "DO_365",
     "INTEGRATORS",
     "LIGHT",
     "MODERATE",
+    "NMAC",
     "SEVERE",
     "SOLVERS",
     "Bodied",
@@ -79,33 +93,43 @@ __all__ = [
     "Cylinder",
     "Gust",
     "Integrator",
+    "MemberPhysics",
     "Obstacle",
+    "PairSample",
     "Physics",
     "PhysicsDivergedError",
+    "Pose",
     "Proximity",
     "Solver",
     "Vehicle",
+    "VehicleContact",
+    "WellClear",
     "Wind",
     "World",
     "WorldConfig",
+    "closest_approach",
+    "first_contact",
     "geodetic_to_local",
     "load_model",
+    "load_spec",
     "local_to_geodetic",
 ]
 
 # These import mujoco, so they load on first use.
 _LAZY = {
     "Bodied": ".world",
+    "MemberPhysics": ".world",
     "Physics": ".world",
     "PhysicsDivergedError": "..core.errors",
     "Vehicle": ".world",
     "World": ".world",
     "load_model": ".world",
+    "load_spec": ".world",
 }
 
 if TYPE_CHECKING:
     from ..core.errors import PhysicsDivergedError
-    from .world import Bodied, Physics, Vehicle, World, load_model
+    from .world import Bodied, MemberPhysics, Physics, Vehicle, World, load_model, load_spec
 
 
 __getattr__, __dir__ = lazy_exports(__name__, _LAZY, __all__)

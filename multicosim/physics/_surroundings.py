@@ -25,11 +25,13 @@ _OBSTACLE_RGBA = (0.8, 0.45, 0.2, 1.0)
 
 
 class Surroundings:
-    """Obstacles and wind of ``config`` around the vehicle ``body``."""
+    """Obstacles and wind of ``config`` around the vehicle ``body`` (of fleet vehicle
+    ``member``, whose objects are named ``member/...``; "" for a world of one vehicle)."""
 
-    def __init__(self, config: WorldConfig, body: Body) -> None:
+    def __init__(self, config: WorldConfig, body: Body, member: str = "") -> None:
         self.config = config
         self.body = body
+        self._prefix = f"{member}/" if member else ""
         self.placed = placed(config.obstacles, config.home)
         self.monitor = ClearanceMonitor(self.placed, body.radius)
         self.wind: WindField | None = None
@@ -40,9 +42,7 @@ class Surroundings:
         self._last = (0.0, 0.0, 0.0, -1.0)  # the body's position at the last measure, and when
 
     def attach(self, spec: Any) -> None:
-        """Add the obstacles and the vehicle's collision sphere to the model's spec."""
-        if not self.placed:
-            return
+        """Add the obstacles to the model's spec (once per world)."""
         for p in self.placed:
             name = f"obstacle{p.number}"
             pos = [p.east, p.north, p.height / 2]
@@ -70,9 +70,14 @@ class Surroundings:
                     conaffinity=_OBSTACLE_AFFINITY,
                     rgba=_OBSTACLE_RGBA,
                 )
-        vehicle = spec.body(self.body.name)
+
+    def attach_sphere(self, spec: Any) -> None:
+        """Add the vehicle's collision sphere to its body in the model's spec."""
+        if not self.placed:
+            return
+        vehicle = spec.body(self._prefix + self.body.name)
         vehicle.add_geom(
-            name="obstacle_contact",
+            name=self._prefix + "obstacle_contact",
             type=mujoco.mjtGeom.mjGEOM_SPHERE,
             size=[self.body.radius, 0.0, 0.0],
             contype=_OBSTACLE_AFFINITY,
@@ -82,7 +87,8 @@ class Surroundings:
 
     def bind(self, model: Any, seed: int, dt: float) -> None:
         """Find the compiled ids; seed the wind."""
-        self._body_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, self.body.name)
+        name = self._prefix + self.body.name
+        self._body_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name)
         for p in self.placed:
             gid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, f"obstacle{p.number}")
             self._geoms[gid] = p.number

@@ -290,22 +290,30 @@ class PX4Component:
         spec = self.spec
         if self.firmware is not None:
             return self._start_sitl(environment, spec)
-        return self._with_ground_station(environment, spec, self._autopilot().start(environment))
+        return self._with_ground_station(environment, self._autopilot().start(environment))
 
-    def _with_ground_station(
-        self, environment: LocalEnvironment, spec: AutopilotSpec, autopilot: Node, **gcs: Any
-    ) -> PX4Node:
+    def gcs_spec(self) -> GcsSpec:
+        """What a ground station flying this autopilot needs: its link, the world's truth,
+        the telemetry period, and real PX4's longer waits."""
+        spec = self.spec
+        # PX4's estimator needs its GPS checks passed (about 10 s) before it arms; its
+        # MAVLink thread answers in wall time, so commands get more slack.
+        slack: dict[str, Any] = (
+            {"preflight_timeout": 120.0, "command_timeout": 3.0} if self.firmware else {}
+        )
+        return GcsSpec(
+            uplink=spec.uplink,
+            downlink=spec.downlink,
+            truth=world_topics(self.world).truth,
+            period=1.0 / self.rate,
+            **slack,
+        )
+
+    def _with_ground_station(self, environment: LocalEnvironment, autopilot: Node) -> PX4Node:
         """The node: ``autopilot`` (stopped if this fails) and a ground station for it."""
         try:
-            gcs_spec = GcsSpec(
-                uplink=spec.uplink,
-                downlink=spec.downlink,
-                truth=world_topics(self.world).truth,
-                period=1.0 / self.rate,
-                **gcs,
-            )
             node = InProcessFirmwareComponent(
-                ground_station(gcs_spec, PX4Procedure(), f"{self.name}.gcs"),
+                ground_station(self.gcs_spec(), PX4Procedure(), f"{self.name}.gcs"),
                 name=f"{self.name}.gcs",
             ).start(environment)
         except BaseException:
@@ -327,11 +335,7 @@ class PX4Component:
             downlink=spec.downlink,
             params=self.sitl_params(),
         )
-        # PX4's estimator needs its GPS checks passed (about 10 s) before it arms; its
-        # MAVLink thread answers in wall time, so commands get more slack.
-        return self._with_ground_station(
-            environment, spec, group, preflight_timeout=120.0, command_timeout=3.0
-        )
+        return self._with_ground_station(environment, group)
 
 
 class PX4Simulation(ScenarioSimulation):

@@ -29,7 +29,7 @@ from .autopilot.firmware import Autopilot
 from .scenario import PX4Component, WorldComponent
 from .sitl import SITL
 
-__all__ = ["paced_params", "run_real_sitl", "run_sitl"]
+__all__ = ["StandalonePX4", "paced_params", "run_real_sitl", "run_sitl"]
 
 log = logging.getLogger(__name__)
 
@@ -113,8 +113,11 @@ def _run(simulation: Any, duration: float | None, stop: threading.Event | None) 
 
 
 @dataclasses.dataclass(frozen=True)
-class _StandalonePX4:
-    """Real PX4 with only its simulator bridge: PX4 keeps its own MAVLink links and ports."""
+class StandalonePX4:
+    """Real PX4 with only its simulator bridge: PX4 keeps its own MAVLink links and ports
+    (QGroundControl on UDP 14550, MAVSDK on 14540 + its instance), so a ground station of
+    one's own flies it. ``world`` says its topics and its world period; ``params`` are PX4's
+    at boot (see ``PX4Component.sitl_params``)."""
 
     sitl: SITL
     world: WorldConfig
@@ -123,6 +126,7 @@ class _StandalonePX4:
     name: str = "px4"
 
     def start(self, environment: LocalEnvironment) -> FirmwareNodes:
+        """Start PX4 and its simulator bridge; return once PX4 has connected."""
         from .sitl import start_sitl
 
         return start_sitl(
@@ -172,7 +176,7 @@ def run_real_sitl(
     params = component.sitl_params()
     sim = where.simulator(seed=seed, realtime=speed)
     sim.add(WorldComponent(world, "medium", placement="in-process"))
-    px4_id: Any = sim.add(_StandalonePX4(sitl, world, params, where))
+    px4_id: Any = sim.add(StandalonePX4(sitl, world, params, where))
     with sim.start() as simulation:
         instance = simulation.get(px4_id).instance
         if on_ready is not None:

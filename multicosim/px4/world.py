@@ -25,6 +25,7 @@ from ..core.geo import GRAVITY
 from ..mavlink.dialect import MODE_FLAG_ARMED
 from ..mavlink.hil import ACTUATOR_FLAG_VELOCITY, HilActuatorControls, MavlinkPacket, Wire, read
 from ..physics.config import WorldConfig
+from ..physics.fleet import Pose, resolve_pose
 from ..physics.obstacles import ClearanceMonitor, placed
 from ..physics.wind import Body, WindField, drag_force, wind_generator
 from ..quadrotor.airframe import NONE_IRIS
@@ -45,6 +46,8 @@ class WorldSpec(msgspec.Struct, frozen=True, kw_only=True):
     wire: Wire = "native"
     point_mass_period: float = 0.02
     velocity_tau: float = 0.35
+    start: Pose | None = None
+    """Where the point mass starts (None: at home, facing north); a fleet's vehicle's start."""
 
     def __post_init__(self) -> None:
         if self.model not in ("point_mass", "mujoco"):
@@ -80,6 +83,10 @@ class PointMassWorld:
         self.pos = [0.0, 0.0, 0.0]
         self.vel = [0.0, 0.0, 0.0]
         self.yaw = 0.0
+        if spec.start is not None:
+            north, east, up, yaw = resolve_pose(spec.start, spec.world.home)
+            self.pos = [north, east, -up]
+            self.yaw = 0.0 if yaw is None else math.radians(yaw)
         self.yaw_rate = 0.0
         self._hil = HilSensors(spec.world, dt, spec.wire, ideal=True)
         self._actuators: Subscription[Any] | None = None

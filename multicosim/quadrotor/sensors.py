@@ -86,10 +86,16 @@ class HilSensors:
     """Turns a vehicle's true state into PX4's sensor messages on the world's topics."""
 
     def __init__(
-        self, world: WorldConfig, period: float, wire: Wire, *, ideal: bool = False
+        self,
+        world: WorldConfig,
+        period: float,
+        wire: Wire,
+        *,
+        ideal: bool = False,
+        topics: Topics | None = None,
     ) -> None:
         self.world = world
-        self.topics: Topics = world_topics(world)
+        self.topics: Topics = topics or world_topics(world)
         self.home = world.home
         self.proj = LocalProjection.at(world.home)
         self._noise = 0.0 if ideal else world.noise

@@ -39,8 +39,9 @@ class Topics(msgspec.Struct, frozen=True):
                 raise ConfigurationError(f"topics.{field}", value, "a non-empty topic name")
 
 
-SENSORS = ("imu", "mag", "baro", "gps", "truth")
-"""The quadrotor world's sensors (``WorldConfig.sensor_topics`` keys)."""
+SENSORS = ("imu", "mag", "baro", "gps", "truth", "actuators")
+"""The quadrotor world's topics by name: its sensors and its motor outputs
+(``WorldConfig.sensor_topics`` keys)."""
 
 
 def world_topics(world: WorldConfig) -> Topics:

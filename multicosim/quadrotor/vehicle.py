@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 import mujoco
 
+from ..core.errors import ConfigurationError
 from ..mavlink.dialect import MODE_FLAG_ARMED
 from ..mavlink.hil import ACTUATOR_FLAG_VELOCITY, HilActuatorControls, MavlinkPacket, Wire, read
 from ..physics.frames import NedState, ned_state
@@ -35,14 +36,21 @@ class QuadrotorVehicle:
     """A quadrotor built from an :class:`~multicosim.quadrotor.airframe.Airframe` (PX4's none_iris).
 
     Motor outputs drive the rotors only while the HIL_ACTUATOR_CONTROLS mode says armed
-    (as PX4's simulators do); sensors come out on the world's topics in ``wire`` form.
+    (as PX4's simulators do); sensors come out on the world's topics in ``wire`` form, every
+    ``period`` seconds (None: every world period; else a whole number of them, its
+    autopilot's rate where the world runs faster for another vehicle).
     """
 
     sensors: Mapping[str, str] = {name: getattr(Topics(), name) for name in SENSORS}
 
-    def __init__(self, airframe: Airframe = NONE_IRIS, wire: Wire = "native") -> None:
+    def __init__(
+        self, airframe: Airframe = NONE_IRIS, wire: Wire = "native", period: float | None = None
+    ) -> None:
         self.airframe = airframe
         self.wire = wire
+        self.period = period
+        self._every = 1
+        self._steps = 0
         self._actuators: Subscription[Any] | None = None
         self._hil: HilSensors | None = None
         self._cmd: HilActuatorControls | None = None
@@ -55,7 +63,14 @@ class QuadrotorVehicle:
 
     def setup(self, physics: Physics, ctx: StepContext, topics: Mapping[str, str]) -> None:
         """Subscribe to the actuator outputs; set up the sensor suite."""
-        self._hil = HilSensors(physics.config, physics.config.period, self.wire)
+        world_period = physics.config.period
+        period = world_period if self.period is None else self.period
+        self._every = max(1, round(period / world_period))
+        if abs(self._every * world_period - period) > 1e-9:
+            raise ConfigurationError(
+                "period", period, f"a whole number of the world's period ({world_period:g} s)"
+            )
+        self._hil = HilSensors(physics.config, period, self.wire, topics=Topics(**topics))
         self._hil.setup(ctx)
         tp = MavlinkPacket if self.wire == "mavlink" else HilActuatorControls
         self._actuators = ctx.subscribe(self._hil.topics.actuators, tp)
@@ -70,7 +85,7 @@ class QuadrotorVehicle:
             latest = sub.latest
             self._cmd = read(latest, HilActuatorControls) if self.wire == "mavlink" else latest
         cmd = self._cmd
-        ctrl = physics.data.ctrl
+        ctrl = physics.ctrl
         if (
             cmd is not None
             and cmd.mode & MODE_FLAG_ARMED
@@ -81,18 +96,20 @@ class QuadrotorVehicle:
             ctrl[:] = 0.0
 
     def sense(self, physics: Physics, ctx: StepContext) -> None:
-        """Publish PX4's sensor messages for the state reached."""
+        """Publish PX4's sensor messages for the state reached (when they are due)."""
         hil = self._hil
         assert hil is not None, "setup() was not called"
-        hil.publish(ctx, *self.state(physics), proximity=physics.proximity)
+        due = self._steps % self._every == 0
+        self._steps += 1
+        if due:
+            hil.publish(ctx, *self.state(physics), proximity=physics.proximity)
 
     def state(self, physics: Physics) -> NedState:
         """The vehicle's true state now, in NED/FRD (from MuJoCo's ENU/FLU)."""
-        d = physics.data
-        qpos = d.qpos.tolist()
+        qpos = physics.qpos.tolist()
         return ned_state(
             qpos[:3],
-            d.qvel[:3].tolist(),
+            physics.qvel[:3].tolist(),
             qpos[3:7],
             self._accel.tolist(),
             self._gyro.tolist(),

@@ -16,9 +16,11 @@ from ._messages import SENSOR_TOPICS
 __all__ = [
     "ACCELERATION",
     "AXLE_HEIGHT",
+    "REACH",
     "TRACK",
     "WHEELBASE",
     "WHEEL_RADIUS",
+    "WHEEL_WIDTH",
     "RoverWorldConfig",
     "SensorNoise",
     "ackermann",
@@ -33,6 +35,10 @@ WHEELBASE = 1.2  # m, rear axle to front axle
 TRACK = 1.0  # m, between left and right wheel centres
 WHEEL_RADIUS = 0.25  # m
 AXLE_HEIGHT = 0.25  # m, height of the sensor point (rear axle centre) above the ground
+WHEEL_WIDTH = 0.12  # m
+REACH = math.hypot(WHEELBASE + WHEEL_RADIUS, (TRACK + WHEEL_WIDTH) / 2)
+"""m: the radius about the rover's reference point (the rear axle's centre) that encloses
+it, front wheels included: its extent in separation from other vehicles."""
 # What the rear drive achieves, accelerating and braking (measured on the MuJoCo model).
 ACCELERATION = 3.2  # m/s^2
 

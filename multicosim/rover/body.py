@@ -10,7 +10,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ..physics.world import Physics, World, load_model
+from ..physics.world import Physics, World, load_spec
 from ._messages import (
     COMMAND_TOPIC,
     MAX_STEERING,
@@ -37,7 +37,8 @@ class RoverVehicle:
     """
 
     model_path = Path(__file__).parent / "models" / "rover.xml"
-    sensors: Mapping[str, str] = SENSOR_TOPICS
+    sensors: Mapping[str, str] = {**SENSOR_TOPICS, "command": COMMAND_TOPIC}
+    """Its topics by name: the sensors it publishes and the command it reads."""
 
     def __init__(self, noise: SensorNoise | None = None) -> None:
         self.noise = noise or SensorNoise()
@@ -46,13 +47,16 @@ class RoverVehicle:
         self._ctrl: list[int] = []
 
     def load_model(self) -> Any:
-        """The rover's MJCF model (``models/rover.xml``)."""
-        return load_model(self.model_path)
+        """The rover's MJCF model (``models/rover.xml``), as a spec: a world adds obstacles
+        and other vehicles to it."""
+        return load_spec(self.model_path)
 
     def setup(self, physics: Physics, ctx: StepContext, topics: Mapping[str, str]) -> None:
         """Find the actuators and subscribe to the command topic."""
         self._topics = topics
-        self._command = ctx.subscribe(COMMAND_TOPIC, Command)
+        # A vehicle of this body driven otherwise (ArduRover's) reads no rover command.
+        command = topics.get("command")
+        self._command = ctx.subscribe(command, Command) if command is not None else None
         self._ctrl = [
             physics.actuator(name)
             for name in (
@@ -70,7 +74,8 @@ class RoverVehicle:
 
     def actuate(self, physics: Physics, ctx: StepContext) -> None:
         """Turn the latest command into steering angles and rear wheel rates."""
-        assert self._command is not None
+        if self._command is None:
+            return
         command = self._command.latest
         if command is None:
             return

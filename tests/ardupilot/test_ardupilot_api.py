@@ -25,7 +25,9 @@ EXPECTED = {
     "Waypoint",
     "WaypointReached",
     "WorldConfig",
+    "boot",
     "default_world",
+    "frame_period",
     "read_params",
 }
 

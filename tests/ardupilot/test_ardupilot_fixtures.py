@@ -12,7 +12,7 @@ import pytest
 from ardupilot_helpers import fake_ardupilot
 
 import multicosim.ardupilot._simulator
-import multicosim.ardupilot._vehicles  # noqa: F401
+import multicosim.ardupilot.vehicles  # noqa: F401
 
 # The inner runs build MuJoCo worlds in this process; numpy cannot be loaded twice in one
 # process, so the modules are loaded here, where pytester's module snapshot keeps them.

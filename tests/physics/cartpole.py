@@ -65,27 +65,28 @@ class CartPole:
     """The cart-pole as the world's vehicle: a motor on the cart, encoders on both joints."""
 
     def __init__(self) -> None:
-        self.sensors = {"state": STATE}  # each sensor's name and default topic
+        # Each topic it publishes or reads, by name, with its default.
+        self.sensors = {"state": STATE, "push": PUSH}
 
     def load_model(self) -> Any:
-        """The MJCF above."""
-        return mujoco.MjModel.from_xml_string(MJCF)
+        """The MJCF above (a spec: the world adds its obstacles, or other vehicles, to it)."""
+        return mujoco.MjSpec.from_string(MJCF)
 
     def setup(self, physics: Physics, ctx: mcs.StepContext, topics: Mapping[str, str]) -> None:
         """Subscribe to the motor's command; tilt the pole."""
         self.topic = topics["state"]  # where WorldConfig(sensor_topics=...) put it
-        self.push = ctx.subscribe(PUSH, Push)
-        physics.data.qpos[1] = TILT
+        self.push = ctx.subscribe(topics["push"], Push)
+        physics.qpos[1] = TILT
 
     def actuate(self, physics: Physics, ctx: mcs.StepContext) -> None:
         """Push with the latest command (MuJoCo holds it to the motor's range)."""
         if self.push.latest is not None:
-            physics.data.ctrl[0] = self.push.latest.force
+            physics.ctrl[0] = self.push.latest.force
 
     def sense(self, physics: Physics, ctx: mcs.StepContext) -> None:
         """Publish the encoders' readings, with seeded noise scaled by WorldConfig.noise."""
         noise = ctx.rng.normal(0.0, NOISE) * physics.config.noise
-        x, v, angle, rate = (physics.data.sensordata + noise).tolist()
+        x, v, angle, rate = (physics.sensordata + noise).tolist()
         ctx.publish(self.topic, State(x=x, v=v, angle=angle, rate=rate))
 
 

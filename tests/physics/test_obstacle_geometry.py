@@ -24,6 +24,7 @@ def scene() -> tuple[Surroundings, object, object]:
     surroundings = Surroundings(WorldConfig(obstacles=(BOX, CYLINDER)), vehicle.body)
     spec = vehicle.load_model()
     surroundings.attach(spec)
+    surroundings.attach_sphere(spec)
     model = spec.compile()
     surroundings.bind(model, seed=0, dt=0.01)
     return surroundings, model, mujoco.MjData(model)

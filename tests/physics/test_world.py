@@ -26,6 +26,7 @@ from multicosim.rover import (
     SENSOR_TOPICS,
     TRACK,
     WHEEL_RADIUS,
+    WHEEL_WIDTH,
     WHEELBASE,
     Command,
     Imu,
@@ -145,6 +146,7 @@ def test_model_matches_the_rover_geometry() -> None:
     assert rear_left[1] - rear_right[1] == pytest.approx(TRACK)
     wheel = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "rear_left_wheel")
     assert model.geom_size[wheel][0] == pytest.approx(WHEEL_RADIUS)
+    assert 2 * model.geom_size[wheel][1] == pytest.approx(WHEEL_WIDTH)
 
 
 def test_missing_model_is_reported() -> None:

@@ -36,19 +36,18 @@ __all__ = ["ArduCopterVehicle", "ArduRoverVehicle"]
 class ArduCopterVehicle(QuadrotorVehicle):
     """The quadrotor (PX4's ``none_iris`` airframe) as ArduCopter's quad X."""
 
-    sensors: Mapping[str, str] = {"truth": TRUTH_TOPIC}
+    sensors: Mapping[str, str] = {"truth": TRUTH_TOPIC, "servos": SERVO_TOPIC}
 
-    def __init__(self, airframe: Airframe = NONE_IRIS, servos: str = SERVO_TOPIC) -> None:
+    def __init__(self, airframe: Airframe = NONE_IRIS) -> None:
         check_quad_x(airframe)
         super().__init__(airframe)
-        self.servos = servos
         self._servo_sub: Subscription[ServoOutputs] | None = None
         self._truth_topic = TRUTH_TOPIC
         self._projection: LocalProjection | None = None
 
     def setup(self, physics: Physics, ctx: StepContext, topics: Mapping[str, str]) -> None:
         """Subscribe to ArduPilot's outputs; find the IMU sensors."""
-        self._servo_sub = ctx.subscribe(self.servos, ServoOutputs)
+        self._servo_sub = ctx.subscribe(topics["servos"], ServoOutputs)
         self._truth_topic = topics["truth"]
         self._projection = LocalProjection.at(physics.config.home)
         self._accel = physics.sensor("accelerometer")
@@ -60,7 +59,7 @@ class ArduCopterVehicle(QuadrotorVehicle):
         assert sub is not None, "setup() was not called"
         outputs = sub.latest
         if outputs is not None:
-            physics.data.ctrl[:] = motor_outputs(outputs.pwm, self._motors)
+            physics.ctrl[:] = motor_outputs(outputs.pwm, self._motors)
 
     def sense(self, physics: Physics, ctx: StepContext) -> None:
         """Publish the true state reached."""
@@ -72,11 +71,10 @@ class ArduCopterVehicle(QuadrotorVehicle):
 class ArduRoverVehicle(RoverVehicle):
     """The Ackermann rover as ArduRover's ground steering and throttle."""
 
-    sensors: Mapping[str, str] = {"truth": TRUTH_TOPIC}
+    sensors: Mapping[str, str] = {"truth": TRUTH_TOPIC, "servos": SERVO_TOPIC}
 
-    def __init__(self, servos: str = SERVO_TOPIC) -> None:
+    def __init__(self) -> None:
         super().__init__()
-        self.servos = servos
         self._servo_sub: Subscription[ServoOutputs] | None = None
         self._truth_topic = TRUTH_TOPIC
         self._projection: LocalProjection | None = None
@@ -87,10 +85,10 @@ class ArduRoverVehicle(RoverVehicle):
     def setup(self, physics: Physics, ctx: StepContext, topics: Mapping[str, str]) -> None:
         """Find the wheels and sensors; subscribe to ArduPilot's outputs."""
         super().setup(physics, ctx, topics)
-        self._servo_sub = ctx.subscribe(self.servos, ServoOutputs)
+        self._servo_sub = ctx.subscribe(topics["servos"], ServoOutputs)
         self._truth_topic = topics["truth"]
         self._projection = LocalProjection.at(physics.config.home)
-        self._site = mujoco.mj_name2id(physics.model, mujoco.mjtObj.mjOBJ_SITE, "sensors")
+        self._site = physics.id(mujoco.mjtObj.mjOBJ_SITE, "sensors")
         self._readings = [
             physics.sensor(name) for name in ("position", "orientation", "accelerometer", "gyro")
         ]
