@@ -2,7 +2,8 @@
 
 ``import multicosim as mcs`` gives the paper's interfaces (Node, CommunicationNode,
 Component, Simulator, Simulation, NodeId), typed messages, the component-side API
-(``@mcs.firmware``, participants, topics on a simulated clock) and the local backend.
+(``@mcs.firmware``, participants, topics on a simulated clock), the local backend and the
+paper's container classes (``mcs.ContainerSimulator``, ``mcs.FirmwareComponent``, ...).
 Heavy backends live in submodules (``multicosim.docker``, ``multicosim.physics``, ...) and
 are imported only when used.
 """
@@ -72,6 +73,21 @@ _LAZY = {
         ".local",
     ),
     **dict.fromkeys(("Placement", "Scenario", "ScenarioSimulation"), ".placement"),
+    # The paper's container classes, where its listings take them from (``mcs.``); the
+    # Docker SDK loads when one is first used.
+    **dict.fromkeys(
+        (
+            "AttachedComponent",
+            "AttachedNode",
+            "ContainerComponent",
+            "ContainerFirmwareNode",
+            "ContainerNode",
+            "ContainerSimulation",
+            "ContainerSimulator",
+            "FirmwareComponent",
+        ),
+        ".docker",
+    ),
     # Errors that carry a payload live beside it.
     "ComponentCheckError": ".local.check",
     "CampaignInterrupted": ".search.campaign",
@@ -81,15 +97,23 @@ _LAZY = {
 
 __all__ = [
     "FIDELITIES",
+    "AttachedComponent",
+    "AttachedNode",
     "CampaignInterrupted",
     "CommunicationNode",
     "Component",
     "ComponentCheckError",
     "ConfigurationError",
+    "ContainerComponent",
+    "ContainerFirmwareNode",
+    "ContainerNode",
+    "ContainerSimulation",
+    "ContainerSimulator",
     "DependencyMissingError",
     "EngineUnavailableError",
     "Fidelity",
     "Firmware",
+    "FirmwareComponent",
     "FirmwareContext",
     "FormulaError",
     "ImageMissingError",
@@ -139,6 +163,16 @@ __all__ = [
 ]
 
 if TYPE_CHECKING:
+    from .docker import (
+        AttachedComponent,
+        AttachedNode,
+        ContainerComponent,
+        ContainerFirmwareNode,
+        ContainerNode,
+        ContainerSimulation,
+        ContainerSimulator,
+        FirmwareComponent,
+    )
     from .local import (
         InProcessComponent,
         InProcessFirmwareComponent,

@@ -12,6 +12,15 @@ import multicosim as mcs
 EXPECTED = {
     "CampaignInterrupted",
     "ComponentCheckError",
+    # The paper's container classes, at the top where its listings take them from.
+    "AttachedComponent",
+    "AttachedNode",
+    "ContainerComponent",
+    "ContainerFirmwareNode",
+    "ContainerNode",
+    "ContainerSimulation",
+    "ContainerSimulator",
+    "FirmwareComponent",
     "EngineUnavailableError",
     "FIDELITIES",
     "Fidelity",
@@ -75,12 +84,34 @@ def test_exported_names_are_the_intended_ones() -> None:
         assert getattr(mcs, name) is not None, name
 
 
-def test_container_classes_come_from_the_docker_package() -> None:
+def test_the_papers_names_are_at_the_top_and_are_the_docker_packages() -> None:
     import multicosim.docker as docker
 
+    # Every name the paper's listings take from ``mcs.`` (its interfaces and its classes).
+    for name in (
+        "Node",
+        "CommunicationNode",
+        "Component",
+        "Simulator",
+        "Simulation",
+        "NodeId",
+        "ContainerSimulator",
+        "ContainerComponent",
+        "FirmwareComponent",
+        "AttachedComponent",
+    ):
+        assert name in mcs.__all__, name
     for name in ("ContainerSimulator", "ContainerComponent", "FirmwareComponent"):
-        assert not hasattr(mcs, name), name
-        assert name in docker.__all__
+        assert getattr(mcs, name) is getattr(docker, name)
+
+
+def test_import_multicosim_loads_no_docker_physics_zeromq_or_mavlink() -> None:
+    code = (
+        "import sys, multicosim; "
+        "print([m for m in ('docker', 'mujoco', 'zmq', 'pymavlink') if m in sys.modules])"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
 
 
 def test_unknown_attribute_is_an_attribute_error() -> None:

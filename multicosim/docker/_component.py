@@ -25,7 +25,14 @@ from .node import DEFAULT_STOP_TIMEOUT, ContainerNode, _port_key, _remove_contai
 __all__ = ["ContainerComponent"]
 
 
-def _default_name(args: list[str], image: str) -> str:
+def _image_name(image: str) -> str:
+    # "ghcr.io/lab/examples/rover/gazebo:1.0" -> "gazebo"
+    return image.rpartition("/")[2].partition(":")[0]
+
+
+def _default_name(args: list[str] | None, image: str) -> str:
+    if args is None:
+        return _image_name(image) or "container"  # the image's own command: its name
     # `multicosim serve pkg.mod:controller` -> "controller": the program names the component
     # better than the interpreter that runs it.
     for arg in args[1:]:
@@ -33,7 +40,7 @@ def _default_name(args: list[str], image: str) -> str:
             return arg.rpartition(":")[2].rpartition(".")[2]
     first = Path(args[0]).name
     if first in ("python", "python3", "multicosim", "sh", "bash"):
-        return image.rpartition("/")[2].partition(":")[0] or first
+        return _image_name(image) or first
     return first
 
 
@@ -74,7 +81,7 @@ def _launch(
     *,
     name: str,
     image: str,
-    args: list[str],
+    args: list[str] | None,
     env: Mapping[str, str],
     publish: Mapping[str, int | None],
     share_with: ContainerNode | None,
@@ -84,7 +91,10 @@ def _launch(
     stop_timeout: float,
     limits: ContainerLimits,
 ) -> tuple[ContainerNode, wire.Hello | None]:
-    """Create and start one container; wait for its hello; clean it up if anything fails."""
+    """Create and start one container; wait for its hello; clean it up if anything fails.
+
+    ``args`` None runs the image's own command (its ``CMD``, after its ``ENTRYPOINT``).
+    """
     api = environment.client.api
     require_image(api, image, name)
     cname = environment.container_name(name)
@@ -172,7 +182,9 @@ def _start_error(name: str, publish: Mapping[str, int | None], exc: APIError) ->
 class ContainerComponent:
     """A component run as a container on the simulation's network (the paper's class).
 
-    ``command`` runs in ``image`` (which must exist locally: images are never pulled).
+    ``command`` runs in ``image`` (which must exist locally: images are never pulled); None
+    (the default) runs the image's own command, as ``docker run IMAGE`` does, so that an
+    image made for one component needs nothing but its name: ``ContainerComponent(image=...)``.
     ``ready="handshake"`` (default) waits until the program joins the simulation (programs
     built with multicosim do); ``ready="started"`` is for arbitrary commands. ``ports`` are
     published on random loopback host ports (see ``ContainerNode.host_port``). ``mounts``
@@ -181,7 +193,7 @@ class ContainerComponent:
     """
 
     image: str
-    command: str | Sequence[str]
+    command: str | Sequence[str] | None = None
     name: str | None = None
     env: Mapping[str, str] = dataclasses.field(default_factory=dict)
     ports: Sequence[int | str] = ()
@@ -193,7 +205,7 @@ class ContainerComponent:
 
     def __post_init__(self) -> None:
         _check_image(self.image)
-        args = split_command(self.command)
+        args = self._args()
         _check_env(self.env)
         _check_mounts(self.mounts)
         _check_limits(self.limits)
@@ -207,6 +219,9 @@ class ContainerComponent:
         check_timeout("stop_timeout", self.stop_timeout)
         if self.name is None:
             object.__setattr__(self, "name", _default_name(args, self.image))
+
+    def _args(self) -> list[str] | None:
+        return None if self.command is None else split_command(self.command)
 
     def required_images(self) -> tuple[str, ...]:
         """The images this component needs locally."""
@@ -224,7 +239,7 @@ class ContainerComponent:
             environment,
             name=self.name,
             image=self.image,
-            args=split_command(self.command),
+            args=self._args(),
             env=self.env,
             publish={_port_key(p): None for p in self.ports},
             share_with=share,

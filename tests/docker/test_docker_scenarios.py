@@ -34,7 +34,7 @@ def _waypoint(north: float, east: float, alt: float) -> px4.Waypoint:
 HOLD = px4.Configuration([_waypoint(20, 10, 8)], end="hold", time_limit=40.0)
 
 
-def test_paper_listing_2_rover_with_a_firmware_container(image: str) -> None:
+def test_rover_world_and_typed_firmware_in_containers(image: str) -> None:
     simulator = ContainerSimulator(seed=1)
     simulator.add(ContainerComponent(image, rover.world_command()))
     node_id = simulator.add(
