@@ -37,7 +37,7 @@ from .dialect import (
 )
 from .hil import MavlinkPacket, Truth
 from .mission import Collision, Configuration, FlightSample, MissionResult, WaypointReached
-from .plan_link import upload_plan_areas, waypoint_indices
+from .plan_link import last_to_reach, upload_plan_areas, waypoint_indices
 
 __all__ = [
     "GcsSpec",
@@ -450,7 +450,7 @@ class GroundStation:
             )
         procedure.start(self, config)
         index = waypoint_indices(config, self.procedure.first_waypoint, self.procedure.plan_offset)
-        last = len(config.mission) - 1
+        last = last_to_reach(config)
         while True:
             if self.ctx.time >= deadline:
                 raise MissionFailed(
@@ -462,7 +462,7 @@ class GroundStation:
             # Items are flown in order: the last waypoint reached means all were. (What
             # follows it, land or return, is a mode of its own: PX4 reports no item reached
             # for a return-to-launch.)
-            waypoints_done = any(index.get(seq) == last for seq, _ in self.reached)
+            waypoints_done = last < 0 or any(index.get(seq) == last for seq, _ in self.reached)
             if procedure.finished(self, config, waypoints_done):
                 return True
 

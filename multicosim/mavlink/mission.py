@@ -109,14 +109,16 @@ class Configuration(msgspec.Struct, frozen=True):
         """The mission of a QGroundControl ``.plan`` file, with its geofence and rally points.
 
         The vehicle flies the plan's items as they are; the configuration's waypoints are
-        its waypoint and loiter items, its cruise speed the plan's ``hoverSpeed`` and its end
+        its waypoint and loiter items and a landing's own position (at altitude 0), its
+        cruise speed the plan's ``hoverSpeed`` and its end
         the plan's last landing or return item (``"hold"`` without one).
         """
         plan = read_plan(path)
         mission = []
         for i in plan.waypoints():
             it = plan.items[i]
-            alt = plan.relative_alt(it)
+            # A landing's altitude is the ground's, whatever the file says.
+            alt = 0.0 if it.command == CMD_LAND else plan.relative_alt(it)
             if alt < 0:
                 raise ConfigurationError(
                     f"{path}: mission.items[{i}].params[6]", it.alt, "an altitude above home"

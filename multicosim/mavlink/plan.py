@@ -28,6 +28,7 @@ from .dialect import (
     CMD_FENCE_POLYGON_INCLUSION,
     CMD_LAND,
     CMD_LOITER_TIME,
+    CMD_LOITER_TO_ALT,
     CMD_LOITER_UNLIM,
     CMD_RALLY_POINT,
     CMD_RTL,
@@ -62,7 +63,7 @@ PLAN_FRAMES = {
 """The frames a plan's items may use (terrain frames need terrain data we do not have)."""
 
 AMSL_FRAMES = (FRAME_GLOBAL, FRAME_GLOBAL_INT)
-WAYPOINT_COMMANDS = (CMD_WAYPOINT, CMD_LOITER_TIME, CMD_LOITER_UNLIM)
+WAYPOINT_COMMANDS = (CMD_WAYPOINT, CMD_LOITER_TIME, CMD_LOITER_UNLIM, CMD_LOITER_TO_ALT)
 """The items a plan's waypoints are made of (where the vehicle flies to and may stay)."""
 
 # QGroundControl's AltitudeMode of an item: 1 relative to home, 2 AMSL.
@@ -79,6 +80,13 @@ def command_name(command: int) -> str:
     entry = dialect("ardupilotmega").enums["MAV_CMD"].get(command)
     name: str = entry.name if entry is not None and not entry.name.endswith("ENUM_END") else ""
     return name
+
+
+def has_position(item: PlanItem) -> bool:
+    """Whether ``item`` names a place: a latitude and longitude, set and not both zero (PX4
+    lands or takes off where the vehicle is when they are zero or unset)."""
+    lat, lon = item.lat, item.lon
+    return math.isfinite(lat) and math.isfinite(lon) and (lat, lon) != (0.0, 0.0)
 
 
 Params = tuple[float, float, float, float, float, float, float]
@@ -158,8 +166,14 @@ class Plan(msgspec.Struct, frozen=True, kw_only=True):
         return item.alt - self.home[2] if item.frame in AMSL_FRAMES else item.alt
 
     def waypoints(self) -> list[int]:
-        """Indices of the items that are waypoints (to fly to, and perhaps to stay at)."""
-        return [i for i, it in enumerate(self.items) if it.command in WAYPOINT_COMMANDS]
+        """Indices of the items that take the vehicle somewhere: waypoints and loiters, and
+        a landing at a position of its own (PX4 flies there, then lands: the last leg of a
+        plan that may have no waypoint at all)."""
+        return [
+            i
+            for i, it in enumerate(self.items)
+            if it.command in WAYPOINT_COMMANDS or (it.command == CMD_LAND and has_position(it))
+        ]
 
     def end(self) -> Literal["land", "rtl", "hold"]:
         """How the mission ends: ``"land"``, ``"rtl"`` or ``"hold"`` (at its last item)."""

@@ -13,6 +13,7 @@ from typing import Any, Protocol
 
 from .dialect import (
     CMD_DO_JUMP,
+    CMD_LAND,
     FRAME_MISSION,
     MISSION_TYPE_FENCE,
     MISSION_TYPE_MISSION,
@@ -116,3 +117,20 @@ def waypoint_indices(
                 break
             out[plan_offset + j] = index
     return out
+
+
+def last_to_reach(config: Configuration) -> int:
+    """The last of the configuration's waypoints the autopilot must report reached.
+
+    A landing at a position of its own ends the mission when the vehicle has landed there
+    (ArduCopter reports no item reached for it, PX4 does): it is not waited for. -1 when
+    the mission has no other waypoint.
+    """
+    plan = config.plan
+    count = len(config.mission)
+    if plan is None:
+        return count - 1
+    items = plan.waypoints()
+    while count and plan.items[items[count - 1]].command == CMD_LAND:
+        count -= 1
+    return count - 1

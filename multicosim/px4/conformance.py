@@ -6,7 +6,8 @@ it streams and their rates, its parameters (names, types, values; with ``metadat
 own parameter metadata, read over MAVLink FTP: defaults and ranges), its answer to each
 command in each state, its flight modes, the mission protocol (mission items in the
 mission frame, DO_JUMP and MISSION_SET_CURRENT onto it, geofence and rally lists, the legacy
-MISSION_REQUEST), and what flying does: a takeoff's altitude held, DO_REPOSITION in Hold,
+MISSION_REQUEST), which mission items it takes in which frame (:mod:`.conformance_items`),
+and what flying does: a takeoff's altitude held, DO_REPOSITION in Hold,
 offboard setpoints that stop and one far away (:mod:`.conformance_flight`). The questions
 are asked with a :class:`~.probe.Probe`, on the autopilot's simulated clock.
 
@@ -45,6 +46,7 @@ from ..mavlink.dialect import (
 )
 from .conformance_flight import differences as flight_differences
 from .conformance_flight import flight
+from .conformance_items import item_answers
 from .modes import Mode
 from .probe import Probe, int_bytes, param_name, param_value
 
@@ -181,28 +183,6 @@ def _mission_items(home: tuple[int, int]) -> list[tuple[Any, ...]]:
     ]
 
 
-def _upload(link: Probe, items: list[tuple[Any, ...]], mission_type: int) -> Any:
-    """Upload ``items``; the ack type and the kinds of requests seen."""
-    link.catch_up()
-    link.mav.mission_count_send(*link.target, len(items), mission_type)
-    requests: list[str] = []
-    for _ in range(4 * len(items) + 4):
-        m = link.wait(
-            lambda m: m.get_type() in ("MISSION_REQUEST", "MISSION_REQUEST_INT", "MISSION_ACK"),
-            2.0,
-        )
-        if m is None:
-            return {"ack": None, "requests": requests}
-        if m.get_type() == "MISSION_ACK":
-            return {"ack": int(m.type), "requests": sorted(set(requests))}
-        requests.append(m.get_type())
-        s, frame, cmd, p1, p2, p3, p4, x, y, z = items[m.seq]
-        link.mav.mission_item_int_send(
-            *link.target, s, frame, cmd, int(s == 0), 1, p1, p2, p3, p4, x, y, z, mission_type
-        )
-    return {"ack": None, "requests": requests}
-
-
 def _missions(link: Probe) -> dict[str, Any]:
     out: dict[str, Any] = {}
     home = link.wait(lambda m: m.get_type() == "HOME_POSITION", 5.0)
@@ -211,7 +191,7 @@ def _missions(link: Probe) -> dict[str, Any]:
         home = link.wait(lambda m: m.get_type() == "HOME_POSITION", 5.0)
     origin = (home.latitude, home.longitude) if home is not None else (473977420, 85455940)
     items = _mission_items(origin)
-    out["mission"] = _upload(link, items, 0)
+    out["mission"] = link.upload(items, 0)
     # MISSION_SET_CURRENT onto the DO_JUMP item: the current item then reported (PX4 v1.15
     # takes the index as it is, without resolving the jump). Asked once the new mission is
     # taken (PX4 puts an idle vehicle's new mission back to its first item), and answered by
@@ -222,16 +202,16 @@ def _missions(link: Probe) -> dict[str, Any]:
     current = link.collect("MISSION_CURRENT", lambda m: int(m.seq), 3.0)
     out["set current onto DO_JUMP"] = current[-1] if current else None
     link.mav.mission_set_current_send(*link.target, 0)
-    out["mission without jump"] = _upload(link, [items[0], items[1]], 0)
+    out["mission without jump"] = link.upload([items[0], items[1]], 0)
     corners = ((9000, 9000), (9000, -9000), (-9000, -9000), (-9000, 9000))
     fence = [
         (i, FRAME_GLOBAL_INT, CMD_FENCE_POLYGON_INCLUSION, 4.0, 0.0, 0.0, 0.0, lat, lon, 0.0)
         for i, (lat, lon) in enumerate((origin[0] + dx, origin[1] + dy) for dx, dy in corners)
     ]
-    out["fence"] = _upload(link, fence, 1)
+    out["fence"] = link.upload(fence, 1)
     rally_at = (origin[0] + 3000, origin[1])
     rally = [(0, FRAME_GLOBAL_REL_INT, CMD_RALLY_POINT, 0.0, 0.0, 0.0, 0.0, *rally_at, 10.0)]
-    out["rally"] = _upload(link, rally, 2)
+    out["rally"] = link.upload(rally, 2)
     # Download with the legacy request: which message answers it.
     link.catch_up()
     link.mav.mission_request_list_send(*link.target, 0)
@@ -314,6 +294,7 @@ def record(
         out["commands"] = _commands(link)
         out["modes"] = _modes(link)
         out["missions"] = _missions(link)
+        out["mission items"] = item_answers(link)
         out["flight"] = flight(link)
         if metadata:
             meta = _metadata(link)
@@ -369,6 +350,10 @@ def differences(expected: dict[str, Any], actual: dict[str, Any]) -> list[str]:
                 want, got = want["ack"], (got or {}).get("ack")
             if got != want:
                 out.append(f"{section} / {key}: {got!r}, PX4 {want!r}")
+    for key, want in expected.get("mission items", {}).items():
+        got = actual.get("mission items", {}).get(key)
+        if got != want:
+            out.append(f"mission items / {key}: {got!r}, PX4 {want!r}")
     out += flight_differences(expected.get("flight", {}), actual.get("flight", {}))
     return out
 

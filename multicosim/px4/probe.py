@@ -269,6 +269,27 @@ class Probe:
 
         return send
 
+    def upload(self, items: list[tuple[Any, ...]], mission_type: int = 0) -> dict[str, Any]:
+        """Upload ``items`` (seq, frame, command, params 1-4, x, y, z each) as a list of
+        ``mission_type``: the MISSION_ACK type (None: no answer) and the kinds of requests
+        that asked for them."""
+        self.catch_up()
+        self.mav.mission_count_send(*self.target, len(items), mission_type)
+        requests: list[str] = []
+        kinds = ("MISSION_REQUEST", "MISSION_REQUEST_INT", "MISSION_ACK")
+        for _ in range(4 * len(items) + 4):
+            m = self.wait(lambda m: m.get_type() in kinds, 2.0)
+            if m is None:
+                break
+            if m.get_type() == "MISSION_ACK":
+                return {"ack": int(m.type), "requests": sorted(set(requests))}
+            requests.append(m.get_type())
+            s, frame, cmd, p1, p2, p3, p4, x, y, z = items[m.seq]
+            self.mav.mission_item_int_send(
+                *self.target, s, frame, cmd, int(s == 0), 1, p1, p2, p3, p4, x, y, z, mission_type
+            )
+        return {"ack": None, "requests": requests}
+
     def param(self, send: Callable[[], None]) -> dict[str, Any]:
         """The reply to a parameter read or set that ``send`` sends (retried, as ground
         stations do): its kind, name and value."""

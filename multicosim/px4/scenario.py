@@ -329,6 +329,7 @@ class PX4Component:
             environment,
             name=self.name,
             topics=spec.topics,
+            home_alt=self.world.home.alt,
             period=sitl_period(self.world),
             wire=spec.wire,
             uplink=spec.uplink,

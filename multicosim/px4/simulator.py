@@ -73,6 +73,7 @@ class HilTcpBridge(Lockstep):
         self,
         topics: Topics | None = None,
         *,
+        home_alt: float,
         period: float = 0.004,
         host: str = "127.0.0.1",
         port: int = SIM_PORT,
@@ -82,6 +83,7 @@ class HilTcpBridge(Lockstep):
         server: socket.socket | None = None,
     ) -> None:
         self.period = period
+        self.home_alt = home_alt
         self.wire = wire
         self.name = name
         self.topics = topics or Topics()
@@ -219,7 +221,9 @@ class HilTcpBridge(Lockstep):
             t.yawspeed,
             round(t.lat * 1e7),
             round(t.lon * 1e7),
-            round(t.alt * 1000),
+            # HIL_STATE_QUATERNION's altitude is AMSL (PX4 passes it on as ground truth, as
+            # MAVSDK's ground_truth reads it); the world's truth is above home.
+            round((self.home_alt + t.alt) * 1000),
             round(t.vn * 100),
             round(t.ve * 100),
             round(t.vd * 100),

@@ -381,6 +381,7 @@ class PX4Launch:
         *,
         name: str,
         topics: Topics,
+        home_alt: float,
         period: float,
         wire: Wire,
         uplink: str | None,
@@ -388,6 +389,7 @@ class PX4Launch:
         params: Mapping[str, float],
     ) -> None:
         self.sitl = sitl
+        self._home_alt = home_alt
         self.name = name
         self.start_timeout = sitl.start_timeout
         self._topics = topics
@@ -421,6 +423,7 @@ class PX4Launch:
         def simulator_bridge() -> HilTcpBridge:
             self.bridge = HilTcpBridge(
                 self._topics,
+                home_alt=self._home_alt,
                 period=self._period,
                 server=server,
                 lockstep_timeout=self.sitl.lockstep_timeout,
@@ -514,6 +517,7 @@ def start_sitl(
     *,
     name: str,
     topics: Topics,
+    home_alt: float,
     period: float,
     wire: Wire,
     uplink: str | None,
@@ -524,13 +528,15 @@ def start_sitl(
 
     With an ``uplink``, PX4's one MAVLink link is carried on ``uplink``/``downlink`` (for
     the simulation's ground station); without, PX4 keeps its own links on its usual ports
-    (standalone SITL). Returns once PX4 has connected to its simulator bridge; PX4 then
+    (standalone SITL). ``home_alt`` is the world's home altitude (m AMSL), for the ground
+    truth PX4 is sent. Returns once PX4 has connected to its simulator bridge; PX4 then
     waits, in lockstep, for the simulation's clock.
     """
     px4 = PX4Launch(
         sitl,
         name=name,
         topics=topics,
+        home_alt=home_alt,
         period=period,
         wire=wire,
         uplink=uplink,

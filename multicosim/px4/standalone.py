@@ -135,6 +135,7 @@ class StandalonePX4:
             environment,
             name=self.name,
             topics=world_topics(self.world),
+            home_alt=self.world.home.alt,
             period=self.world.period,
             wire="native",
             uplink=None,

@@ -85,8 +85,9 @@ def test_a_qgc_plan_reads_as_its_mission_fence_and_rally_points() -> None:
     config = px4.Configuration.from_plan(PLAN)
     plan = config.plan
     assert plan is not None
-    # Waypoints: the relative one, the AMSL one (508 m AMSL over a 488 m home), the loiter.
-    assert [round(w.alt, 6) for w in config.mission] == [15.0, 20.0, 20.0]
+    # Waypoints: the relative one, the AMSL one (508 m AMSL over a 488 m home), the loiter,
+    # the landing's own position.
+    assert [round(w.alt, 6) for w in config.mission] == [15.0, 20.0, 20.0, 0.0]
     assert [it.command for it in plan.items] == [22, 16, 178, 16, 2000, 19, 21]
     assert [it.frame for it in plan.items] == [3, 3, 2, 0, 2, 3, 3]
     assert plan.items[5].params[0] == 5.0  # loiter for 5 s
@@ -266,7 +267,8 @@ def climb_rate(result: px4.MissionResult) -> float:
 def check_flown(result: px4.MissionResult) -> None:
     """The test plan flown: every waypoint reached in order, landed where it says."""
     assert result.completed, result.reason
-    assert [r.index for r in result.reached] == [0, 1, 2]
+    # Three waypoints, then the landing at its own position.
+    assert [r.index for r in result.reached] == [0, 1, 2, 3]
     times = [r.time for r in result.reached]
     # 30 m east at the plan's 3 m/s, then 33 m south and the 5 s loiter.
     assert times[1] - times[0] >= 30.0 / 3.3

@@ -1022,7 +1022,9 @@ async def _goto_start(t: Tester) -> None:
     await t.sleep_for(2)
 
 
-async def _reposition(t: Tester, n: float, e: float, change_mode: bool = True) -> None:
+async def _reposition(
+    t: Tester, n: float, e: float, change_mode: bool = True, alt: float | None = None
+) -> None:
     import json
 
     from mavsdk.asyncio.plugins.mavlink_direct import MavlinkMessage
@@ -1043,7 +1045,7 @@ async def _reposition(t: Tester, n: float, e: float, change_mode: bool = True) -
         "param4": math.nan,
         "x": round(lat * 1e7),
         "y": round(lon * 1e7),
-        "z": home.absolute_altitude_m + 10.0,
+        "z": home.absolute_altitude_m + 10.0 if alt is None else alt,
     }
     message = MavlinkMessage(
         "COMMAND_INT", 245, 190, t.sysid, 1, json.dumps(fields).replace("NaN", "null")
@@ -1119,6 +1121,25 @@ def test_goto_in_place_reposition_while_in_hold(vehicle: Any) -> None:
         await _reposition(t, 30.0, 0.0, change_mode=False)
         await _reaches(t, (30.0, 0.0), 2.0, 60)
         await _nav_state(t, AUTO, LOITER, 1)
+
+    vehicle(case)
+
+
+def test_goto_reposition_at_an_altitude_from_ground_truth(vehicle: Any) -> None:
+    # The in-place case with its altitude from the ground truth of home, as a user's own
+    # test may take it: the world's truth is AMSL, as HOME_POSITION is (a truth sent above
+    # home had real PX4 descend to land where it stood).
+    async def case(t: Tester) -> None:
+        await _goto_start(t)
+        home = await t.telemetry.home()
+        t.check(
+            abs(t.home.absolute_altitude_m - home.absolute_altitude_m) < 1.0,
+            f"ground truth at home {t.home.absolute_altitude_m:.1f} m AMSL, "
+            f"home {home.absolute_altitude_m:.1f} m",
+        )
+        await _reposition(t, 30.0, 0.0, change_mode=False, alt=t.home.absolute_altitude_m + 10)
+        await _reaches(t, (30.0, 0.0), 2.0, 60)
+        await _watch(t, 3, lambda p: abs(-p[2] - 10.0) < 1.5, "holds 10 m up")
 
     vehicle(case)
 

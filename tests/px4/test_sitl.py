@@ -176,7 +176,10 @@ def test_bridge_runs_the_world_in_lockstep_with_a_tcp_simulator_client(
     sim.add(WorldComponent(world, "medium", placement=placement))
     bridge_id = sim.add(
         mcs.InProcessComponent(
-            lambda: HilTcpBridge(topics, period=world.period, port=0, wire=wire), "hil"
+            lambda: HilTcpBridge(
+                topics, home_alt=world.home.alt, period=world.period, port=0, wire=wire
+            ),
+            "hil",
         )
     )
     truth: list[Truth] = []
@@ -221,7 +224,13 @@ def test_bridge_drops_a_client_that_speaks_no_mavlink() -> None:
     sim.add(WorldComponent(world, "medium", placement="in-process"))
     bridge_id = sim.add(
         mcs.InProcessComponent(
-            lambda: HilTcpBridge(world_topics(world), period=world.period, port=0, wire="native"),
+            lambda: HilTcpBridge(
+                world_topics(world),
+                home_alt=world.home.alt,
+                period=world.period,
+                port=0,
+                wire="native",
+            ),
             "hil",
         )
     )

@@ -22,7 +22,6 @@ from ...mavlink.dialect import (
     CMD_FENCE_POLYGON_EXCLUSION,
     CMD_FENCE_POLYGON_INCLUSION,
     CMD_RALLY_POINT,
-    CMD_RTL,
     FRAME_GLOBAL,
     FRAME_GLOBAL_INT,
     FRAME_GLOBAL_REL,
@@ -45,6 +44,7 @@ from ...mavlink.dialect import (
     SEV_WARNING,
 )
 from ...mavlink.plan import command_name
+from ..items import Frame, taken
 from ..modes import Mode
 from .geofence import inside_fence
 from .state import Item, State
@@ -192,16 +192,15 @@ class Missions(State):
         proj = LocalProjection(ref[3], ref[4]) if ref is not None else None
         for it in items:
             cmd = it.command
-            if not command_name(cmd):
-                return MISSION_UNSUPPORTED, f"item {it.seq}: command {cmd} unsupported"
+            if it.frame not in (*GLOBAL_FRAMES, FRAME_MISSION):
+                return MISSION_UNSUPPORTED_FRAME, f"item {it.seq}: frame {it.frame} unsupported"
+            frame: Frame = "mission" if it.frame == FRAME_MISSION else "global"
+            ack = taken(cmd, frame, it.param1)
+            if ack != MISSION_ACCEPTED:
+                name = command_name(cmd) or f"command {cmd}"
+                return ack, f"item {it.seq}: {name} unsupported in the {frame} frame"
             if cmd == CMD_DO_JUMP and not 0 <= it.param1 < len(items):
                 return MISSION_ERROR, f"item {it.seq}: DO_JUMP to a missing item"
-            if cmd in NAV_COMMANDS and it.frame not in (
-                *GLOBAL_FRAMES,
-                # PX4 takes a return-to-launch item (no position) in the mission frame.
-                *((FRAME_MISSION,) if cmd == CMD_RTL else ()),
-            ):
-                return MISSION_UNSUPPORTED_FRAME, f"item {it.seq}: frame {it.frame} unsupported"
             if proj is not None and ref is not None and cmd in NAV_COMMANDS and (it.x or it.y):
                 n, e = proj.project(it.x * 1e-7, it.y * 1e-7)
                 if fence_r > 0 and math.hypot(n, e) > fence_r:

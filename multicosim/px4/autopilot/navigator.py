@@ -13,8 +13,10 @@ from __future__ import annotations
 import math
 
 from ...mavlink.dialect import (
+    CMD_DELAY,
     CMD_DO_CHANGE_SPEED,
     CMD_DO_JUMP,
+    CMD_DO_SET_HOME,
     CMD_LAND,
     CMD_LOITER_TIME,
     CMD_LOITER_UNLIM,
@@ -29,7 +31,7 @@ from ...mavlink.dialect import (
     SEV_NOTICE,
 )
 from ...mavlink.hil import ACTUATOR_FLAG_VELOCITY, HilActuatorControls
-from ...mavlink.plan import command_name
+from ...mavlink.plan import WAYPOINT_COMMANDS, command_name
 from ..modes import Mode
 from .control import position_control
 from .state import Item, State, Vec3
@@ -88,6 +90,11 @@ class Navigator(State):
                     self._dirty.add("MISSION_CURRENT")
                 else:
                     self.seq += 1
+            elif item.command == CMD_DO_SET_HOME:
+                # Here (param 1 = 1) or at the item's position (AMSL), as the command does.
+                where = (item.x * 1e-7, item.y * 1e-7, item.z)
+                self._set_home_to((item.param1, 0.0, 0.0, 0.0, *where), item.frame)
+                self._item_reached()
             elif item.command not in NAV_COMMANDS:
                 # Camera, gimbal, region of interest: nothing in our world to act on. Said,
                 # so that the flight's messages record it, and passed, as PX4 passes them.
@@ -249,11 +256,23 @@ class Navigator(State):
             # Made current by MISSION_SET_CURRENT (see _on_mission_set_current): PX4 v1.15
             # waits on it with an idle setpoint; the vehicle stays where it is.
             return self._hold, None, False, None
-        if cmd == CMD_RTL:
-            sp = self._rtl()
-            if self.landed:
+        if cmd == CMD_DELAY:
+            # Held for param 1 seconds at the last item's position, flown back to if it
+            # overshot it, as real PX4 does (a time of day in params 2-4 it does not use).
+            if self._reached_at is None:
+                self._reached_at = self._now
+            if self._now - self._reached_at >= max(item.param1, 0.0):
                 self._item_reached()
-            return sp
+            return self._hold, None, False, None
+        if cmd == CMD_RTL:
+            # PX4 v1.15 reports the item reached and the mission finished (its current item
+            # stays), and hands the return over to its Return mode: climb, straight home
+            # from where the vehicle is (not back along the last leg), land.
+            self._send(self._d.MAVLink_mission_item_reached_message(self.seq))
+            self.mission_state = MISSION_STATE_COMPLETE
+            self.set_mode(Mode.RTL)
+            self._dirty.add("HEARTBEAT")
+            return self._rtl()
         if self._target is None:
             self._target = self._item_target(item)
             if cmd == CMD_TAKEOFF:
@@ -270,13 +289,18 @@ class Navigator(State):
             self._hold = (pos[0], pos[1], self._home_d() - alt)
             self._phase = "takeoff"
         if self._phase == "takeoff":
-            if abs(pos[2] - self._hold[2]) < p["NAV_MC_ALT_RAD"]:
-                self._phase = "go"
-                if cmd == CMD_TAKEOFF:
+            if abs(pos[2] - self._hold[2]) >= p["NAV_MC_ALT_RAD"]:
+                return self._hold, None, False, None
+            self._phase = "go"
+            if cmd == CMD_TAKEOFF:
+                # PX4 climbs where the vehicle stands, then flies at that height to the
+                # takeoff item's own position, if it has one, before the next item.
+                n, e, _ = self._item_target(item)
+                if math.hypot(n - pos[0], e - pos[1]) < p["NAV_ACC_RAD"]:
                     self._item_reached()
                     return self._hold, None, False, None
-            else:
-                return self._hold, None, False, None
+                self._target = t = (n, e, self._hold[2])
+                self._leg_origin = (pos[0], pos[1])
         if cmd == CMD_LAND:
             if self._phase in ("", "go"):
                 self._phase = "approach"
@@ -295,6 +319,7 @@ class Navigator(State):
         hdist = math.hypot(pos[0] - t[0], pos[1] - t[1])
         if cmd != CMD_LOITER_UNLIM and hdist < acc and abs(pos[2] - t[2]) < p["NAV_MC_ALT_RAD"]:
             hold_time = item.param1 if cmd in (CMD_WAYPOINT, CMD_LOITER_TIME) else 0.0
+            # (LOITER_TO_ALT: a multicopter reaches its altitude there and goes on.)
             if self._reached_at is None:
                 self._reached_at = self._now
             if self._now - self._reached_at >= hold_time:
@@ -332,7 +357,7 @@ class Navigator(State):
     def _next_position(self, seq: int) -> tuple[float, float] | None:
         """Where the first item from ``seq`` on that goes somewhere lies (north, east)."""
         for item in self.mission[seq:]:
-            if item.command in (CMD_WAYPOINT, CMD_LOITER_TIME, CMD_LOITER_UNLIM, CMD_LAND):
+            if item.command in (*WAYPOINT_COMMANDS, CMD_LAND):
                 n, e, _ = self._item_target(item)
                 return n, e
             if item.command in (CMD_RTL, CMD_DO_JUMP):
