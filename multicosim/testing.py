@@ -222,7 +222,8 @@ class Misbehave(Message):
     """Ask :func:`misbehave` to fail in a given way.
 
     ``how``: ``raise``; ``exit`` with ``code``; ``hang`` (sleep) or ``spin`` (a busy Python
-    loop) for ``seconds``; ``step`` (keep stepping the clock, forever); anything else answers.
+    loop) for ``seconds``; ``step`` (step the clock for ``seconds`` of simulated time);
+    anything else answers.
     """
 
     how: str
@@ -245,6 +246,7 @@ def misbehave(msg: Misbehave, ctx: FirmwareContext) -> str:
         while time.monotonic() < end:
             pass
     if msg.how == "step":
-        while True:
+        end = ctx.time + msg.seconds
+        while ctx.time < end:
             ctx.step()
     return msg.how

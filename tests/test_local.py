@@ -10,6 +10,7 @@ import sys
 import threading
 import time
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -429,3 +430,40 @@ def test_firmware_thread_component_runs_in_lockstep() -> None:
 )
 def test_default_component_names(command: str, name: str) -> None:
     assert mcs.ProcessComponent(command).name == name
+
+
+class Sluggish:
+    """A participant whose every step takes 20 ms of wall time: a loaded machine's pace."""
+
+    period = 0.01
+
+    def setup(self, ctx: mcs.StepContext) -> None:
+        pass
+
+    def step(self, ctx: mcs.StepContext) -> None:
+        time.sleep(0.02)
+
+
+@pytest.mark.parametrize("where", ["in-process", "thread", "process"])
+def test_a_firmware_stepping_slowly_is_not_timed_out_while_the_clock_moves(where: str) -> None:
+    # Its timeout is liveness: 0.3 s without the simulated clock moving. Stepping 2 simulated
+    # seconds next to a sluggish participant takes 200 steps of 20 ms: longer in all than
+    # the timeout, never that long between two steps. (Simulated time decides.)
+    simulator = mcs.ProcessSimulator()
+    simulator.add(mcs.InProcessComponent(Sluggish, name="sluggish"))
+    component: Any
+    if where == "in-process":
+        component = mcs.InProcessFirmwareComponent(testing.misbehave, timeout=0.3)
+    elif where == "thread":
+        component = mcs.ThreadFirmwareComponent(testing.misbehave, replytype=str, timeout=0.3)
+    else:
+        component = mcs.ProcessFirmwareComponent(
+            MISBEHAVE, name="misbehave", msgtype=testing.Misbehave, replytype=str, timeout=0.3
+        )
+    node_id = simulator.add(component)
+    with simulator.start() as simulation:
+        node = simulation.get(node_id)
+        assert node.send(testing.Misbehave(how="step", seconds=2.0)) == "step"
+        # Between steps, the timeout still holds: a handler that stops stepping is stopped.
+        with pytest.raises(mcs.NodeTimeoutError, match=r"did not answer within 0\.3 s"):
+            node.send(testing.Misbehave(how="spin", seconds=5.0))

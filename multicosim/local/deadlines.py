@@ -60,7 +60,8 @@ class _Deadlines:
 
     def __init__(self) -> None:
         self._lock = threading.Lock()
-        self._armed: dict[int, tuple[int, float]] = {}  # call -> (thread, deadline)
+        # call -> (thread, deadline)
+        self._armed: dict[int, tuple[int, float | Callable[[], float]]] = {}
         self._fired: dict[int, int] = {}  # call -> thread, until the call is forgotten
         self._settled: set[int] = set()  # fired calls whose interruption cannot come later
         self._count = itertools.count()
@@ -101,8 +102,9 @@ class _Deadlines:
             now = time.monotonic()
             with self._lock:
                 for key, (thread, deadline) in list(self._armed.items()):
+                    limit = deadline() if callable(deadline) else deadline
                     # Popping is the claim: the call's own pop, or this one, wins.
-                    if now > deadline and self._armed.pop(key, None) is not None:
+                    if now > limit and self._armed.pop(key, None) is not None:
                         self._fired[key] = thread
                         _interrupt(thread, _Expired)
 
@@ -114,8 +116,12 @@ _next_key = _deadlines._count.__next__
 _thread_id = threading.get_ident
 
 
-def run_within(deadline: float, call: Callable[[*Ts], T], *args: *Ts) -> T | Expired:
-    """``call(*args)``, interrupted once ``time.monotonic()`` passes ``deadline``.
+def run_within(
+    deadline: float | Callable[[], float], call: Callable[[*Ts], T], *args: *Ts
+) -> T | Expired:
+    """``call(*args)``, interrupted once ``time.monotonic()`` passes ``deadline`` (a time, or
+    a function the watch asks each time it looks: a deadline the call moves on as it makes
+    progress).
 
     Returns the call's result, or :class:`Expired` (saying where it was) if it was
     interrupted. Calls nest: an enclosing call's deadline interrupts an inner one too, and

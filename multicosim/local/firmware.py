@@ -121,9 +121,12 @@ class ProcessFirmwareNode(Generic[MsgT, ReplyT]):
         return decode(answer.payload, self.replytype, what=f"reply of {self.name!r}")
 
     def _wait(self, call_id: int, timeout: float) -> wire.Reply | wire.Failure | wire.Pong:
+        # ``timeout`` is liveness: the wait ends that long after the simulated clock last
+        # moved (or after the call, if it never does), however long the firmware steps.
         deadline = time.monotonic() + timeout
         sock = self._socket
         env = self._environment
+        clock = env.scheduler.now_ns if env is not None else 0
         answer: list[wire.Reply | wire.Failure | wire.Pong] = []
 
         readable = self._readable
@@ -147,7 +150,11 @@ class ProcessFirmwareNode(Generic[MsgT, ReplyT]):
                 self._check(deadline, timeout)
 
         def between() -> None:
-            if time.monotonic() > deadline:
+            nonlocal deadline, clock
+            now = time.monotonic()
+            if env is not None and env.scheduler.now_ns != clock:
+                clock, deadline = env.scheduler.now_ns, now + timeout
+            elif now > deadline:
                 self._check(deadline, timeout)
 
         if env is None:

@@ -106,10 +106,12 @@ class InProcessFirmwareNode(Generic[MsgT, ReplyT]):
         ctx.time_ns = scheduler.now_ns
         with scheduler.lock():
             try:
-                # The driver stops a handler that keeps stepping at the deadline itself (each
-                # ctx.step() checks it); the watch interrupts one that stopped stepping.
+                # The driver stops a handler whose steps come too far apart itself (each
+                # ctx.step() checks it, and moves the deadline on); the watch interrupts one
+                # that stopped stepping.
+                driver.limit(limit)
                 reply = run_within(
-                    driver.limit(limit) + _FIRMWARE_GRACE, _call, fw.handler, checked, ctx
+                    lambda: driver.deadline + _FIRMWARE_GRACE, _call, fw.handler, checked, ctx
                 )
             except (NodeError, SimulationStopped):
                 # The harness's own failures (a participant crashed or timed out while this
@@ -125,7 +127,8 @@ class InProcessFirmwareNode(Generic[MsgT, ReplyT]):
         if isinstance(reply, Expired):
             raise NodeTimeoutError(
                 self.name,
-                f"did not answer within {limit:g} s (its handler was interrupted at "
+                f"did not answer within {limit:g} s of its last step (its handler was "
+                f"interrupted at "
                 f"t={scheduler.now_ns / 1e9:g} s of simulated time)"
                 f"{_interrupted(reply, 'it was')}",
             )

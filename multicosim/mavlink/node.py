@@ -51,8 +51,13 @@ class MissionNode:
         """Raise ConfigurationError if ``msg`` cannot be flown (a waypoint outside the fence)."""
         msg.check_geofence(self.component.world.home, self.component.geofence)
 
-    def send(self, msg: Configuration) -> MissionResult:
-        """Fly the mission in ``msg`` and return its result."""
+    def send(self, msg: Configuration, *, timeout: float | None = None) -> MissionResult:
+        """Fly the mission in ``msg`` and return its result.
+
+        ``timeout``: the wall seconds the simulated clock may stand still before the flight
+        is given up (the ground station's own; liveness, not a bound on the mission, whose
+        limit is ``msg.time_limit`` in simulated seconds).
+        """
         if self._stopped:
             raise MulticosimError(f"component {self.name!r} is stopped")
         if not isinstance(msg, Configuration):
@@ -60,7 +65,7 @@ class MissionNode:
                 "msg", msg, f"a {type_name(Configuration)} (the message type of {self.name!r})"
             )
         self.check(msg)
-        return self.ground_station.send(msg)
+        return self.ground_station.send(msg, timeout=timeout)
 
     def stop(self) -> None:
         """Stop the ground station and the autopilot; idempotent."""

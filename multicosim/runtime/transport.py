@@ -203,7 +203,10 @@ class RemoteDriver:
 class LocalDriver:
     """Drives an in-process firmware's clock by running the scheduler in the caller's thread.
 
-    After :meth:`limit`, a step past the deadline raises NodeTimeoutError.
+    After :meth:`limit`, the handler may take that long in wall time between two of its
+    steps (the time it takes the simulation to make progress), however long it runs in all:
+    a step after a longer wait raises NodeTimeoutError, and :attr:`deadline` moves on with
+    every step.
     """
 
     def __init__(self, scheduler: Scheduler, member: Member) -> None:
@@ -213,7 +216,8 @@ class LocalDriver:
         self.timeout = math.inf
 
     def limit(self, timeout: float) -> float:
-        """Give the handler ``timeout`` wall-clock seconds from now; return the deadline."""
+        """Give the handler ``timeout`` wall-clock seconds from now, and as long again from
+        each of its steps; return the first deadline."""
         self.timeout = timeout
         self.deadline = time.monotonic() + timeout
         return self.deadline
@@ -221,12 +225,16 @@ class LocalDriver:
     def _my_turn(self) -> tuple[int, list[Delivery]]:
         # Scheduler.run specialised to "until it is my turn": this driver is active, so the
         # clock runs, and the next member is found once per step instead of twice.
-        if time.monotonic() > self.deadline:
+        now = time.monotonic()
+        if now > self.deadline:
             raise NodeTimeoutError(
                 self.member.name,
-                f"did not answer within {self.timeout:g} s (its handler was still stepping "
-                f"at t={self.scheduler.now_ns / 1e9:g} s of simulated time)",
+                f"did not answer within {self.timeout:g} s of its last step (at "
+                f"t={self.scheduler.now_ns / 1e9:g} s of simulated time)",
             )
+        # Liveness, not a bound on the whole call: the handler is stepping, so it has until
+        # as long again from now.
+        self.deadline = now + self.timeout
         sched, me = self.scheduler, self.member
         next_member, step_member = sched.next_member, sched.step_member
         while (member := next_member()) is not me:
