@@ -23,12 +23,12 @@ fixtures.
 
 from __future__ import annotations
 
-import os
 from typing import TYPE_CHECKING, Any
 
 import pytest
 
 from .fidelity import deselect, fidelity_of
+from .options import sourced
 from .simulations import tracked
 
 if TYPE_CHECKING:
@@ -49,8 +49,7 @@ __all__ = [
 
 def configured_dir(config: pytest.Config) -> str | None:
     """ArduPilot's SITL directory for this run: the option, its ini twin, the environment."""
-    value = config.getoption("mcs_ardupilot_dir") or config.getini("mcs_ardupilot_dir")
-    return str(value) if value else os.environ.get("MCS_ARDUPILOT_DIR") or None
+    return sourced(config, "mcs_ardupilot_dir")
 
 
 @pytest.fixture

@@ -19,7 +19,6 @@ the fixtures.
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -27,6 +26,7 @@ import pytest
 
 from multicosim.core.fidelity import check_fidelity
 
+from .options import sourced
 from .simulations import tracked
 
 if TYPE_CHECKING:
@@ -46,8 +46,7 @@ _ENV = "MCS_AEROBENCH_DIR"
 
 def configured_aerobench(config: pytest.Config) -> str | None:
     """AeroBench's directory as this run names it: the option, its ini twin, the environment."""
-    value = config.getoption("mcs_aerobench_dir") or config.getini("mcs_aerobench_dir")
-    return str(value) if value else os.environ.get(_ENV) or None
+    return sourced(config, "mcs_aerobench_dir")
 
 
 @pytest.fixture(scope="session")

@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import importlib.util
 import os
+import shlex
 import tempfile
 from pathlib import Path
 
@@ -19,6 +20,7 @@ from multicosim.core.fidelity import FIDELITIES, check_fidelity
 from multicosim.placement.registry import ENTRY_POINTS, default_placement, placement_names
 
 __all__ = [
+    "FIRMWARE_DESTS",
     "KEEP_TRACES",
     "OPTION_DESTS",
     "Settings",
@@ -27,6 +29,7 @@ __all__ = [
     "parse_fidelity",
     "read_settings",
     "settings_key",
+    "sourced",
 ]
 
 KEEP_TRACES = ("failed", "all", "none")
@@ -45,6 +48,17 @@ OPTION_DESTS = (
     "mcs_ray",
 )
 
+FIRMWARE_DESTS = ("mcs_px4_image", "mcs_px4_binary", "mcs_ardupilot_dir", "mcs_aerobench_dir")
+"""The options naming firmware and models from outside the package, each with an environment
+twin (``MCS_PX4_BINARY``, ...)."""
+
+
+def sourced(config: pytest.Config, dest: str) -> str | None:
+    """The option ``dest``, else its ini twin, else its environment variable (``mcs_px4_binary``:
+    ``MCS_PX4_BINARY``); None when none is set."""
+    value = config.getoption(dest) or config.getini(dest)
+    return str(value) if value else os.environ.get(dest.upper()) or None
+
 
 @dataclasses.dataclass(frozen=True)
 class Settings:
@@ -59,10 +73,17 @@ class Settings:
     ray: str | None = None
 
     def replay_args(self, fidelity: str | None) -> str:
-        """Command-line options that replay a test with the same seed, fidelity and placement."""
+        """Command-line options that replay a test with the same seed, fidelity and placement,
+        writing where this run wrote (its artifacts directory, absolute)."""
         level = fidelity or ",".join(self.fidelity)
         placement = f" --mcs-placement={self.placement}" if self.placement else ""
-        return f"--mcs-seed={self.seed} --mcs-fidelity={level}{placement}"
+        ray = f" --mcs-ray={shlex.quote(self.ray)}" if self.ray else ""
+        traces = f" --mcs-keep-traces={self.keep_traces}" if self.keep_traces != "failed" else ""
+        artifacts = shlex.quote(str(self.artifacts.absolute()))
+        return (
+            f"--mcs-seed={self.seed} --mcs-fidelity={level}{placement}{ray}"
+            f" --mcs-artifacts={artifacts}{traces}"
+        )
 
     def placement_for(self, fidelity: str | None) -> str:
         """The name of the placement a test at ``fidelity`` runs in (None: the first level

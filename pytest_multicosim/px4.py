@@ -26,7 +26,6 @@ Heavy imports happen inside the fixtures.
 
 from __future__ import annotations
 
-import os
 from typing import TYPE_CHECKING, Any
 
 import pytest
@@ -34,6 +33,7 @@ import pytest
 from multicosim.core.fidelity import check_fidelity
 
 from .fidelity import deselect
+from .options import sourced
 from .simulations import tracked
 
 if TYPE_CHECKING:
@@ -77,17 +77,11 @@ class RealPX4:
         return f"RealPX4(image={self.image!r}, binary={self.binary!r})"
 
 
-def _option(config: pytest.Config, name: str, env: str) -> str | None:
-    """The option, else its ini twin, else the environment variable ``env``."""
-    value = config.getoption(name) or config.getini(name)
-    return str(value) if value else os.environ.get(env) or None
-
-
 def real_px4(config: pytest.Config) -> RealPX4:
     """The real PX4 configured for this run (options, ini, environment)."""
     return RealPX4(
-        _option(config, "mcs_px4_image", "MCS_PX4_IMAGE"),
-        _option(config, "mcs_px4_binary", "MCS_PX4_BINARY"),
+        sourced(config, "mcs_px4_image"),
+        sourced(config, "mcs_px4_binary"),
     )
 
 

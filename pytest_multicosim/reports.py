@@ -16,7 +16,7 @@ import pytest
 
 from .artifacts import artifacts_dir, dest_key, save_logs, save_trace, trace_key
 from .fidelity import fidelity_of
-from .options import Settings, settings_key
+from .options import FIRMWARE_DESTS, Settings, settings_key, sourced
 from .simulations import view_key
 
 __all__ = ["annotate", "header", "replay_command", "verdict"]
@@ -45,7 +45,18 @@ def replay_command(settings: Settings, item: pytest.Item) -> str:
     target = str(item.path) + (sep + rest if sep else "")
     # Quoted for a POSIX shell: parametrized ids may hold quotes, spaces or brackets.
     pytest_cmd = f"{shlex.quote(sys.executable)} -m pytest"
-    return f"{pytest_cmd} {shlex.quote(target)} {settings.replay_args(fidelity_of(item))}"
+    config = item.config
+    # The same root (so the same test id and ini file from any directory), and the firmware
+    # this run found in options, ini or environment, which another shell may not have.
+    extra = [f"--rootdir={shlex.quote(str(config.rootpath))}"]
+    for dest in FIRMWARE_DESTS:
+        value = sourced(config, dest)
+        if value is not None:
+            path = Path(value)
+            shown = str(path.absolute()) if path.exists() else value
+            extra.append(f"--{dest.replace('_', '-')}={shlex.quote(shown)}")
+    args = settings.replay_args(fidelity_of(item))
+    return f"{pytest_cmd} {shlex.quote(target)} {' '.join(extra)} {args}"
 
 
 def verdict(item: pytest.Item, call: pytest.CallInfo[None]) -> str:

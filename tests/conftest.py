@@ -15,9 +15,13 @@ from typing import Any
 import pytest
 
 # In-process pytester runs forget the modules first imported inside them, and C extensions
-# cannot be imported twice in a process (numpy refuses; pyzmq's exceptions stop matching): the
-# outer session imports the ones inner runs use before any inner run can.
-for _name in ("numpy", "zmq", "mujoco", "matplotlib.figure", "docker", "multicosim.local"):
+# cannot be imported twice in a process (numpy refuses; pyzmq's exceptions stop matching), nor
+# may a class be (px4.SITL made from a module imported again is no px4.SITL to the scenario
+# that kept the first): the outer session imports the ones inner runs use before any can.
+for _name in (
+    *("numpy", "zmq", "mujoco", "matplotlib.figure", "docker", "multicosim.local"),
+    *("multicosim.px4.scenario", "multicosim.ardupilot"),
+):
     importlib.import_module(_name)
 
 # A suite started as a background job (``cmd &`` without job control) inherits SIGINT

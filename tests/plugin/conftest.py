@@ -12,6 +12,8 @@ import pytest
 from mcs_programs import process_gone
 from plugin_helpers import write_ini
 
+from pytest_multicosim.px4 import RealPX4
+
 PROGRAMS = Path(__file__).with_name("mcs_programs.py")
 
 
@@ -49,3 +51,12 @@ def reaper() -> Iterator[list[int]]:
         if not process_gone(pid, timeout=0):
             with contextlib.suppress(ProcessLookupError, PermissionError):
                 os.killpg(pid, signal.SIGKILL)
+
+
+@pytest.fixture(scope="session")
+def session_px4(request: pytest.FixtureRequest) -> RealPX4:
+    """The real PX4 this session names, read before ``pytester`` hides the firmware settings
+    from inner runs."""
+    from pytest_multicosim.px4 import real_px4
+
+    return real_px4(request.config)

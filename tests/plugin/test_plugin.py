@@ -18,6 +18,7 @@ from plugin_helpers import write_ini
 from multicosim.core.fidelity import FIDELITIES
 from multicosim.placement import placement_names
 from pytest_multicosim.options import KEEP_TRACES
+from pytest_multicosim.px4 import RealPX4
 
 PYTEST = f"{shlex.quote(sys.executable)} -m pytest"
 """How a replay command names pytest: through the interpreter that ran the session."""
@@ -403,8 +404,8 @@ def test_failure_report_shows_seed_and_replay_command(pytester: pytest.Pytester)
         [
             "*- multicosim -*",
             "verdict: AssertionError: seeded failure*",
-            f"replay: {PYTEST} '{here}/test_failing.py::test_fails[[]medium[]]' --mcs-seed=31337 "
-            "--mcs-fidelity=medium",
+            f"replay: {PYTEST} '{here}/test_failing.py::test_fails[[]medium[]]' --rootdir={here} "
+            f"*--mcs-seed=31337 --mcs-fidelity=medium --mcs-artifacts={here}/mcs-artifacts",
             "seed 31337, fidelity medium, placement process",
             "*- multicosim -*",
             "verdict: AssertionError: assert \"it's [[]odd[]]\" == 'plain'*",
@@ -424,7 +425,10 @@ def test_failure_report_shows_seed_and_replay_command(pytester: pytest.Pytester)
     elsewhere = pytester.mkdir("elsewhere")
     bare = {k: v for k, v in os.environ.items() if k not in ("VIRTUAL_ENV", "PYTHONPATH")}
     bare["PATH"] = os.defpath
-    for replay, message in zip(replays, ["seeded failure", "it's [odd]"], strict=True):
+    ids = ["test_failing.py::test_fails[medium]", "test_failing.py::test_quoted[it's [odd]]"]
+    for replay, message, test_id in zip(
+        replays, ["seeded failure", "it's [odd]"], ids, strict=True
+    ):
         again = subprocess.run(
             [*shlex.split(replay), "-p", "no:cacheprovider"],
             cwd=elsewhere,
@@ -437,6 +441,11 @@ def test_failure_report_shows_seed_and_replay_command(pytester: pytest.Pytester)
         assert "1 failed" in again.stdout
         assert "seed 31337, fidelity " in again.stdout
         assert message in again.stdout
+        # The same test under the same root (its id shown relative to where it was run),
+        # replayable again by the very same line; nothing written where it was run from.
+        assert f"{test_id} - " in again.stdout
+        assert f"replay: {replay}" in again.stdout.splitlines()
+    assert not (elsewhere / "mcs-artifacts").exists()
 
 
 def test_failure_in_a_fixture_also_shows_the_seed(pytester: pytest.Pytester) -> None:
@@ -457,7 +466,7 @@ def test_failure_in_a_fixture_also_shows_the_seed(pytester: pytest.Pytester) -> 
     result.stdout.fnmatch_lines(
         [
             "verdict: RuntimeError: setup went wrong",
-            f"replay: {PYTEST} {pytester.path}/test_setup.py::test_uses_it --mcs-seed=4 *",
+            f"replay: {PYTEST} {pytester.path}/test_setup.py::test_uses_it *--mcs-seed=4 *",
             "seed 4, fidelity low, placement in-process",
         ]
     )
@@ -848,3 +857,58 @@ def test_killed_host_takes_its_components_along_and_a_new_session_sweeps_the_res
     pytester.runpytest_subprocess(timeout=60).assert_outcomes(passed=1)
     assert process_gone(grandchild)
     assert list(isolated_runs.iterdir()) == []
+
+
+REAL_PX4_FAILS = """
+def test_hover(px4_simulation, px4_autopilot):
+    px4_simulation.advance(1.0)
+    assert px4_autopilot == "builtin", "fails on real PX4"
+"""
+
+
+def test_a_real_px4_failures_replay_line_replays_from_anywhere(
+    session_px4: RealPX4, pytester: pytest.Pytester, inner_env: dict[str, str]
+) -> None:
+    # Real PX4 named only in the environment: the replay line, run verbatim from another
+    # directory in a shell without it, flies real PX4 again, fails the same way and replaces
+    # the first run's artifacts.
+    binary = session_px4.binary
+    if binary is None:
+        pytest.skip("no real PX4 binary configured (--mcs-px4-binary or MCS_PX4_BINARY)")
+    pytester.makepyfile(test_real=REAL_PX4_FAILS)
+    env = inner_env
+    first = subprocess.run(
+        [sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "--mcs-fidelity=medium"],
+        cwd=pytester.path,
+        env={**env, "MCS_PX4_BINARY": binary},
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert "1 failed, 1 passed" in first.stdout, first.stdout + first.stderr
+    replays = [line[len("replay: ") :] for line in first.stdout.splitlines() if "replay: " in line]
+    assert len(replays) == 1
+    assert "--mcs-px4-binary=" in replays[0]
+    artifacts = pytester.path / "mcs-artifacts"
+    before = {p: p.stat().st_mtime_ns for p in artifacts.rglob("*") if p.is_file()}
+    assert before, "the failing run kept no artifacts"
+    elsewhere = pytester.mkdir("elsewhere")
+    again = subprocess.run(
+        [*shlex.split(replays[0]), "-p", "no:cacheprovider"],
+        cwd=elsewhere,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert "1 failed" in again.stdout, again.stdout + again.stderr
+    assert "fails on real PX4" in again.stdout
+    assert not (elsewhere / "mcs-artifacts").exists()
+    after = {p: p.stat().st_mtime_ns for p in artifacts.rglob("*") if p.is_file()}
+
+    def kinds(files: dict[Path, int]) -> list[tuple[Path, str]]:
+        # (PX4 names its ULog by the time of day: the same kind of file, another name.)
+        return sorted((p.parent, p.suffix) for p in files)
+
+    assert kinds(after) == kinds(before)
+    assert min(after.values()) > max(before.values())  # all written again
