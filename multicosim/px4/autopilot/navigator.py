@@ -268,10 +268,11 @@ class Navigator(State):
             # PX4 v1.15 reports the item reached and the mission finished (its current item
             # stays), and hands the return over to its Return mode: climb, straight home
             # from where the vehicle is (not back along the last leg), land.
-            self._send(self._d.MAVLink_mission_item_reached_message(self.seq))
-            self.mission_state = MISSION_STATE_COMPLETE
-            self.set_mode(Mode.RTL)
-            self._dirty.add("HEARTBEAT")
+            # (Said once: while Return is refused, no position, the item is flown here.)
+            if self.set_mode(Mode.RTL) is None and self.mode == Mode.RTL:
+                self._send(self._d.MAVLink_mission_item_reached_message(self.seq))
+                self.mission_state = MISSION_STATE_COMPLETE
+                self._dirty.add("HEARTBEAT")
             return self._rtl()
         if self._target is None:
             self._target = self._item_target(item)
