@@ -18,7 +18,7 @@ import pytest
 
 from .docker import sweep_containers
 
-__all__ = ["Activity", "activity_key", "acts_for", "fixture_names", "nested"]
+__all__ = ["Activity", "activity_key", "acts_for", "fixture_names", "nested", "uses_ours"]
 
 log = logging.getLogger(__name__)
 
@@ -61,10 +61,15 @@ def fixture_names(modules: Iterable[ModuleType]) -> frozenset[str]:
 
 def acts_for(item: pytest.Item) -> bool:
     """Whether the plugin acts for ``item`` (our fixtures or marker, or an option given)."""
-    activity = item.config.stash[activity_key]
-    if activity.explicit or item.get_closest_marker("fidelity") is not None:
+    return item.config.stash[activity_key].explicit or uses_ours(item)
+
+
+def uses_ours(item: pytest.Item) -> bool:
+    """Whether ``item`` uses one of our fixtures or the ``fidelity`` marker (a test of ours)."""
+    if item.get_closest_marker("fidelity") is not None:
         return True
-    return not activity.fixtures.isdisjoint(getattr(item, "fixturenames", ()))
+    fixtures = item.config.stash[activity_key].fixtures
+    return not fixtures.isdisjoint(getattr(item, "fixturenames", ()))
 
 
 def nested() -> bool:

@@ -78,7 +78,8 @@ def recording(item: pytest.Item) -> Iterator[None]:
             "fidelity": fidelity_of(item) or settings.fidelity[0],
             "placement": settings.placement_for(fidelity_of(item)),
         },
-        record=settings.keep_traces != "none",
+        # A repeated test is compared sample by sample, whatever is kept of it.
+        record=settings.keep_traces != "none" or settings.repeat > 1,
     )
     item.stash[trace_key] = test_trace
     with trace.activate(test_trace):

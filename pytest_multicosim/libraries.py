@@ -15,6 +15,7 @@ pytest session of the environment) costs nothing.
 
 from __future__ import annotations
 
+import sys
 from importlib.metadata import EntryPoint, entry_points
 from types import ModuleType
 
@@ -36,6 +37,14 @@ def load(config: pytest.Config) -> list[ModuleType]:
                 f"{ep.value!r} is not a module: a fixture library is named by its module, "
                 f"without ':attribute' ({_named_by(ep)})"
             )
+        already = sys.modules.get(ep.module)
+        if already is not None and not manager.is_blocked(ep.module):
+            # A conftest imported it first (``from pytest_multicosim.px4 import ...``): pytest
+            # can no longer rewrite its asserts (it would warn), and has no need to.
+            if manager.get_plugin(ep.module) is None:
+                manager.register(already, ep.module)
+            loaded[ep.module] = already
+            continue
         try:
             manager.import_plugin(ep.module)
         except pytest.UsageError as exc:  # the module is nowhere to be found

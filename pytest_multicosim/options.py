@@ -46,6 +46,8 @@ OPTION_DESTS = (
     "mcs_px4_image",
     "mcs_px4_binary",
     "mcs_ray",
+    "mcs_repeat",
+    "mcs_repeat_load",
 )
 
 FIRMWARE_DESTS = ("mcs_px4_image", "mcs_px4_binary", "mcs_ardupilot_dir", "mcs_aerobench_dir")
@@ -71,6 +73,10 @@ class Settings:
     artifacts: Path
     keep_traces: str
     ray: str | None = None
+    repeat: int = 1
+    """How many times each simulation test runs (``--mcs-repeat``)."""
+    repeat_load: int = 0
+    """Busy processes the plugin starts while tests repeat (``--mcs-repeat-load``)."""
 
     def replay_args(self, fidelity: str | None) -> str:
         """Command-line options that replay a test with the same seed, fidelity and placement,
@@ -79,6 +85,10 @@ class Settings:
         placement = f" --mcs-placement={self.placement}" if self.placement else ""
         ray = f" --mcs-ray={shlex.quote(self.ray)}" if self.ray else ""
         traces = f" --mcs-keep-traces={self.keep_traces}" if self.keep_traces != "failed" else ""
+        if self.repeat > 1:
+            traces += f" --mcs-repeat={self.repeat}"
+        if self.repeat_load:
+            traces += f" --mcs-repeat-load={self.repeat_load}"
         artifacts = shlex.quote(str(self.artifacts.absolute()))
         return (
             f"--mcs-seed={self.seed} --mcs-fidelity={level}{placement}{ray}"
@@ -167,6 +177,22 @@ def add_options(parser: pytest.Parser) -> None:
         help="run campaigns (mcs_campaign_executor) on the Ray cluster at ADDRESS "
         "(auto, local, ray://head:10001, ...; default: the local process pool)",
     )
+    group.addoption(
+        "--mcs-repeat",
+        dest="mcs_repeat",
+        default=None,
+        help="run every simulation test K times with the same seed and fail it if its "
+        "verdict or any sample changes (naming the first that does; default: 1)",
+    )
+    group.addoption(
+        "--mcs-repeat-load",
+        dest="mcs_repeat_load",
+        nargs="?",
+        const=str(2 * (os.cpu_count() or 1)),
+        default=None,
+        help="while tests repeat, keep N busy processes running (alone: twice as many as "
+        "cores; default: 0)",
+    )
     parser.addini("mcs_fidelity", "default for --mcs-fidelity", default="low")
     parser.addini("mcs_placement", "default for --mcs-placement", default="")
     parser.addini("mcs_seed", "default for --mcs-seed", default="0")
@@ -177,6 +203,8 @@ def add_options(parser: pytest.Parser) -> None:
     parser.addini("mcs_ardupilot_dir", "default for --mcs-ardupilot-dir", default="")
     parser.addini("mcs_aerobench_dir", "default for --mcs-aerobench-dir", default="")
     parser.addini("mcs_ray", "default for --mcs-ray", default="")
+    parser.addini("mcs_repeat", "default for --mcs-repeat", default="1")
+    parser.addini("mcs_repeat_load", "default for --mcs-repeat-load", default="0")
 
 
 def given(config: pytest.Config) -> bool:
@@ -283,4 +311,21 @@ def read_settings(config: pytest.Config) -> Settings:
         raise pytest.UsageError(
             f"{source}: {ray!r} needs Ray, which is not installed: pip install 'multicosim[ray]'"
         )
-    return Settings(fidelity, placement or None, seed, artifacts, keep, ray or None)
+    repeat = _count(config, "mcs_repeat", 1)
+    repeat_load = _count(config, "mcs_repeat_load", 0)
+    return Settings(
+        fidelity, placement or None, seed, artifacts, keep, ray or None, repeat, repeat_load
+    )
+
+
+def _count(config: pytest.Config, name: str, least: int) -> int:
+    text, source = _value(config, name)
+    try:
+        count = int(text)
+        if count < least:
+            raise ValueError
+    except ValueError:
+        raise pytest.UsageError(
+            f"{source}: {text!r} is not a count; allowed: an integer >= {least}"
+        ) from None
+    return count

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import pytest
 
-from . import fixtures, libraries
+from . import fixtures, libraries, repeat
 from ._signals import SigtermAsInterrupt
 from .activity import Activity, activity_key, acts_for, fixture_names, nested
 from .artifacts import recording
@@ -52,6 +52,10 @@ def pytest_configure(config: pytest.Config) -> None:
         explicit=given(config), fixtures=fixture_names([fixtures, *loaded])
     )
     config.stash[sigterm_key] = SigtermAsInterrupt()
+    if config.stash[settings_key].repeat > 1 and not config.pluginmanager.has_plugin(
+        repeat.PLUGIN_NAME
+    ):
+        config.pluginmanager.register(repeat.Repeater(config), repeat.PLUGIN_NAME)
     # Safety net for interpreter exits that bypass fixture teardown.
     atexit.register(registry.stop_all)
 
@@ -129,6 +133,8 @@ def pytest_runtest_protocol(
     if not acts_for(item):
         return (yield)
     item.config.stash[activity_key].sweep_once()
+    if repeat.repeats(item) > 1:
+        return (yield)  # the repeated protocol records each run itself
     with recording(item):
         return (yield)
 
@@ -139,5 +145,7 @@ def pytest_runtest_makereport(
 ) -> Generator[None, pytest.TestReport, pytest.TestReport]:
     report: pytest.TestReport = yield
     if acts_for(item):
+        if report.when == "call" and repeat.wants_fingerprint(item.config):
+            repeat.note_fingerprint(item)
         annotate(item, call, report)
     return report

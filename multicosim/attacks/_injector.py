@@ -24,7 +24,7 @@ from ..core.clock import NS
 from ..core.errors import ConfigurationError
 from ..core.interfaces import Component, Node
 from ..local import LocalEnvironment, participant_command, required_images
-from ..mavlink.hil import Wire
+from ..mavlink.hil import Packer, Wire
 from ..placement import ParticipantProgram, Placement, as_placement
 from ..trace import ATTACK_CHANNEL
 from .models import (
@@ -164,6 +164,8 @@ class SensorInjector:
     def setup(self, ctx: StepContext) -> None:
         """Subscribe to the raw topic (and to the topics of Stream models)."""
         self._sub = ctx.subscribe(self.config.source, self.sensor.payload_type(self.config.wire))
+        # Its own frame numbering: what else its process packs must not change its frames.
+        self._packer = Packer()
         subscribe_streams(ctx, self.config.models, self._offsets.values())
 
     def step(self, ctx: StepContext) -> None:
@@ -199,7 +201,7 @@ class SensorInjector:
                     if delta is not None and any(delta):
                         changed = self.sensor.apply(changed, quantity, delta)
                 if changed is not message:
-                    out = self.sensor.write(changed, self.config.wire)
+                    out = self.sensor.write(changed, self.config.wire, self._packer)
                     self.corrupted += 1
         delay = max((m.delay for m in self._delays if m.active(time)), default=0.0)
         if delay > 0 or self._held:

@@ -17,7 +17,7 @@ from typing import Any
 
 from ..core.errors import ConfigurationError
 from ..core.geo import LocalProjection
-from ..mavlink.hil import Wire
+from ..mavlink.hil import Packer, Wire
 
 __all__ = [
     "ALIASES",
@@ -87,13 +87,13 @@ class Sensor:
 
         return read(payload, self.message)
 
-    def write(self, message: Any, wire: Wire) -> Any:
-        """The payload carrying ``message`` on ``wire``."""
+    def write(self, message: Any, wire: Wire, packer: Packer | None = None) -> Any:
+        """The payload carrying ``message`` on ``wire`` (a frame numbered by ``packer``)."""
         if not self.hil:
             return message
         from ..mavlink.hil import write
 
-        return write(message, wire)
+        return write(message, wire, packer)
 
 
 # -- geometry the vehicles' adapters share ----------------------------------------------------

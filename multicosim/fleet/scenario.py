@@ -54,6 +54,7 @@ from .world import Body, FleetWorldSpec
 if TYPE_CHECKING:
     from ..local import ProcessSimulation
     from ..runtime.context import FirmwareContext
+    from ..trace import TraceOptions
 
 __all__ = ["ArduPilotVehicle", "Fleet", "FleetFlights", "FleetSimulation", "Member", "PX4Vehicle"]
 
@@ -157,8 +158,10 @@ class FleetSimulation(ScenarioSimulation):
         gcs: NodeId[Any],
         monitor: NodeId[InProcessNode[EncounterMonitor]],
         own_links: frozenset[str] = frozenset(),
+        deterministic: bool = True,
     ) -> None:
         super().__init__(simulation)
+        self._deterministic = deterministic
         self.vehicles: dict[str, Any] = {n: simulation.get(i) for n, i in vehicles.items()}
         self._flown = sorted(set(vehicles) - own_links)
         self._gcs = simulation.get(gcs)
@@ -184,6 +187,12 @@ class FleetSimulation(ScenarioSimulation):
     def encounter(self) -> Any:
         """The encounter measured so far (:class:`~multicosim.fleet.Encounter`)."""
         return self._monitor.encounter()
+
+    def trace_options(self) -> TraceOptions:
+        """Whether its runs repeat bit for bit (not with real firmware, on its own threads)."""
+        from ..trace import TraceOptions
+
+        return TraceOptions(deterministic=self._deterministic)
 
 
 class Fleet(Scenario[FleetSimulation]):
@@ -232,6 +241,8 @@ class Fleet(Scenario[FleetSimulation]):
         super().__init__(
             fidelity=fidelity, placement=placement, seed=seed, realtime=realtime, run_dir=run_dir
         )
+        self.real = real
+        """Whether real firmware flies one of its vehicles."""
         self.vehicles = dict(vehicles)
         self.world = self._base_world(world, real)
         # With real firmware the world is its simulator, in this process beside its bridges.
@@ -394,6 +405,7 @@ class Fleet(Scenario[FleetSimulation]):
             frozenset(
                 n for n, v in self.vehicles.items() if isinstance(v, PX4Vehicle) and v.own_links
             ),
+            deterministic=not self.real,
         )
         try:
             for name in self._arducopters:

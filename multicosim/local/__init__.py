@@ -11,7 +11,8 @@ The backend lives in modules of one concern each; this module gathers their publ
 * ``processes``: local processes; ``firmware``: firmware nodes over ZeroMQ;
 * ``inprocess``: in-process components; ``simulators`` and ``simulation``: simulators and
   the running set (the scenarios' base is :mod:`multicosim.placement.scenario`);
-* ``check``: ``check_component``, the conformance check of a component of one's own.
+* ``check``: ``check_component``, the conformance check of a component of one's own;
+* ``load``: ``CpuLoad``, busy processes for tests and soaks under load.
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ from .inprocess import (
     InProcessFirmwareNode,
     InProcessNode,
 )
+from .load import CpuLoad
 from .processes import (
     ProcessComponent,
     ProcessHandle,
@@ -66,6 +68,7 @@ __all__ = [
     "DEFAULT_START_TIMEOUT",
     "DEFAULT_STEP_TIMEOUT",
     "Coordinator",
+    "CpuLoad",
     "InProcessComponent",
     "InProcessFirmwareComponent",
     "InProcessFirmwareNode",

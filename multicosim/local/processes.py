@@ -35,6 +35,7 @@ __all__ = [
     "ProcessComponent",
     "ProcessHandle",
     "ProcessNode",
+    "before_exec",
     "check_memory",
     "check_port",
     "default_name",
@@ -123,7 +124,7 @@ def _prctl() -> Callable[..., int] | None:
     return prctl
 
 
-def _before_exec(memory: int | None) -> Callable[[], None] | None:
+def before_exec(memory: int | None) -> Callable[[], None] | None:
     """What a child runs before its program: die with its host; cap its memory.
 
     Even a component busy inside a step then ends with its host (SIGKILL to pytest, a crash,
@@ -184,7 +185,7 @@ class ProcessHandle:
                 env={**os.environ, **env},
                 cwd=cwd,
                 start_new_session=True,
-                preexec_fn=_before_exec(memory),
+                preexec_fn=before_exec(memory),
             )
         except OSError as exc:
             self._log.close()

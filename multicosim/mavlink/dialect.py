@@ -93,7 +93,8 @@ _CRC = struct.Struct("<H")
 _scalar: dict[int, Any] = {}  # msgid -> class, for messages of scalar fields only
 
 
-def _scalar_class(msgid: int) -> Any:
+def scalar_class(msgid: int) -> Any:
+    """The message class of ``msgid`` if its fields are all scalars (:func:`pack_scalar`)."""
     cls = _scalar.get(msgid, False)
     if cls is False:
         cls = dialect().mavlink_map.get(msgid)
@@ -193,7 +194,7 @@ def _parse_frames(mav: Any, data: bytes) -> list[Any]:
             return out + (mav.parse_buffer(data[i:]) or [])
         frame = data[i : i + size]
         try:
-            cls = None if signed else _scalar_class(frame[7] | (frame[8] << 8) | (frame[9] << 16))
+            cls = None if signed else scalar_class(frame[7] | (frame[8] << 8) | (frame[9] << 16))
             out.append(
                 _decode_scalar(cls, frame, frame[1])
                 if cls is not None

@@ -10,12 +10,13 @@ once works on both wires.
 
 from __future__ import annotations
 
+from collections import deque
 from typing import TYPE_CHECKING, Any, Literal, TypeVar
 
 import msgspec
 
 from ..physics.obstacles import NO_OBSTACLES, Proximity
-from .dialect import dialect, new_link
+from .dialect import decode_frames, dialect, new_link, pack_scalar, scalar_class
 
 if TYPE_CHECKING:
     from ..core.geo import LocalProjection
@@ -30,9 +31,9 @@ __all__ = [
     "HilGps",
     "HilSensor",
     "MavlinkPacket",
+    "Packer",
     "Truth",
     "Wire",
-    "pack",
     "truth",
     "unpack",
 ]
@@ -150,24 +151,45 @@ _FROM_MAV = {
     "HIL_ACTUATOR_CONTROLS": HilActuatorControls,
 }
 
-_links: dict[int, object] = {}
 
+class Packer:
+    """Packs messages as the MAVLink 2 frames of one sender (``system``), numbered in sequence.
 
-def _link(system: int) -> object:
-    link = _links.get(system)
-    if link is None:
-        link = _links[system] = new_link(system, 1)
-    return link
+    Each publisher owns one: a frame's sequence number then depends on what its publisher
+    sent, not on what else its process packed before, so a flight is the same bits in
+    process, as processes and in containers, run after run.
+    """
 
+    def __init__(self, system: int = 1, component: int = 1) -> None:
+        self._link: Any = new_link(system, component)
 
-def pack(msg: HilMessage, system: int = 1) -> MavlinkPacket:
-    """``msg`` as a packed MAVLink 2 frame from ``system``."""
-    cls = getattr(dialect(), _MAV_CLASSES[type(msg)])
-    mav_msg = cls(*msgspec.structs.astuple(msg))
-    link: Any = _link(system)
-    data = bytes(mav_msg.pack(link))
-    link.seq = (link.seq + 1) & 0xFF
-    return MavlinkPacket(data)
+    def frame(self, mav_msg: Any) -> bytes:
+        """A pymavlink message packed as the next frame."""
+        data = bytes(mav_msg.pack(self._link))
+        self._link.seq = (self._link.seq + 1) & 0xFF
+        return data
+
+    def pack(self, msg: HilMessage) -> MavlinkPacket:
+        """``msg`` as the next packed frame."""
+        cls = getattr(dialect(), _MAV_CLASSES[type(msg)])
+        values = msgspec.structs.astuple(msg)
+        if scalar_class(cls.id) is None:  # HIL_ACTUATOR_CONTROLS' array: pymavlink's path
+            return MavlinkPacket(self.frame(cls(*values)))
+        # The sensors' frames, at every world step: packed directly, as pymavlink packs them
+        # (the message's extension fields, which the Struct leaves out, zero).
+        wire = [0] * len(cls.orders)
+        for position, value in zip(cls.orders, values, strict=False):
+            wire[position] = value
+        data = pack_scalar(self._link, cls, *wire)
+        # What a receiver decodes (floats rounded to 32 bits), for one in this process that
+        # gets this very bytes object: it need not parse the frame (see unpack).
+        t = cls.unpacker.unpack(cls.unpacker.pack(*wire))
+        _packed.append((data, type(msg)(*(t[i] for i in cls.orders[: len(values)]))))
+        return MavlinkPacket(data)
+
+    def write(self, msg: HilMessage, wire: Wire) -> HilMessage | MavlinkPacket:
+        """The payload to publish for ``msg`` on ``wire``."""
+        return msg if wire == "native" else self.pack(msg)
 
 
 def from_mavlink(mav_msg: object) -> HilMessage | None:
@@ -180,15 +202,22 @@ def from_mavlink(mav_msg: object) -> HilMessage | None:
 
 
 _parser: list[object] = []
+# The latest frames packed in this process, each with its message as decoded: a receiver in
+# this process that gets the very same bytes object takes the message instead of parsing.
+_packed: deque[tuple[bytes, HilMessage]] = deque(maxlen=16)
 
 
 def unpack(packet: MavlinkPacket) -> list[HilMessage]:
     """The HIL messages inside ``packet`` (other MAVLink messages are skipped)."""
+    data = packet.data
+    for packed, message in reversed(_packed):
+        if packed is data:
+            return [message]
     if not _parser:
         _parser.append(new_link(0, 0))
     parser: Any = _parser[0]
     out: list[HilMessage] = []
-    for m in parser.parse_buffer(packet.data) or ():
+    for m in decode_frames(parser, data):
         hil = from_mavlink(m)
         if hil is not None:
             out.append(hil)
@@ -206,9 +235,10 @@ def read(payload: object, tp: type[M]) -> M | None:
     return None
 
 
-def write(msg: HilMessage, wire: Wire) -> HilMessage | MavlinkPacket:
-    """The payload to publish for ``msg`` on ``wire``."""
-    return msg if wire == "native" else pack(msg)
+def write(msg: HilMessage, wire: Wire, packer: Packer | None = None) -> HilMessage | MavlinkPacket:
+    """The payload to publish for ``msg`` on ``wire``: a frame numbered by ``packer`` (the
+    publisher's own, see :class:`Packer`), else a frame of its own (sequence number 0)."""
+    return (packer or Packer()).write(msg, wire)
 
 
 def payload_type(wire: Wire, tp: type[M]) -> type[M] | type[MavlinkPacket]:

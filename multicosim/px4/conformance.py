@@ -76,11 +76,11 @@ def _streams(link: Probe) -> dict[str, float]:
 def _params(link: Probe) -> dict[str, Any]:
     values: dict[int, tuple[str, int, Any]] = {}
     count = None
-    link.catch_up()
     for _ in range(4):
         if count is None:
             # (Again, while nothing has come: a datagram may be lost on a busy host, and
-            # ground stations ask again too.)
+            # ground stations ask again too; each time from a caught-up clock.)
+            link.catch_up()
             link.mav.param_request_list_send(*link.target)
         # Until all have come, or none for 2 s (simulated).
         while count is None or len(values) < count:

@@ -8,7 +8,7 @@ frames (:class:`MavlinkPacket`, between processes at medium fidelity); :func:`re
 
     msg = hil.read(payload, hil.HilGps)          # None if the payload holds no HIL_GPS
     moved = msgspec.structs.replace(msg, lat=msg.lat + 100)
-    ctx.publish("px4/gps/attacked", hil.write(moved, wire))
+    ctx.publish("px4/gps/attacked", hil.write(moved, wire, packer))  # packer: hil.Packer()
 """
 
 from __future__ import annotations
@@ -22,9 +22,9 @@ from ..mavlink.hil import (
     HilGps,
     HilSensor,
     MavlinkPacket,
+    Packer,
     Truth,
     Wire,
-    pack,
     payload_type,
     read,
     unpack,
@@ -40,9 +40,9 @@ __all__ = [
     "HilGps",
     "HilSensor",
     "MavlinkPacket",
+    "Packer",
     "Truth",
     "Wire",
-    "pack",
     "payload_type",
     "read",
     "unpack",

@@ -124,11 +124,13 @@ class Probe:
             self._streamed = self.sim_ms
             self.stream()
 
-    def catch_up(self, wall: float = 2.0) -> None:
+    def catch_up(self, wall: float = 10.0) -> None:
         """Read what is already waiting (for up to ``wall`` seconds).
 
         Called before a question: a reader that has fallen behind a sped-up autopilot would
-        otherwise time the answer's window from its backlog's clock, not from the question.
+        otherwise time the answer's window from its backlog's clock, not from the question,
+        and close it on the backlog before the answer is read. On a loaded machine a reader
+        at a tenth of the CPU it needs takes seconds to catch up, hence the generous bound.
         """
         limit = time.monotonic() + wall
         while time.monotonic() < limit:

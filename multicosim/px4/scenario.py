@@ -88,12 +88,15 @@ def sitl_period(world: WorldConfig) -> float:
     return round(world.timestep * steps, 9)
 
 
-def wire_of(fidelity: Fidelity, placement: Placement, real_firmware: bool = False) -> Wire:
-    """How sensor payloads travel between world and autopilot: native Structs at low
-    fidelity and where both share a process (real firmware's world shares its bridge's),
-    MAVLink HIL frames between processes above, as PX4 SITL exchanges them."""
-    native = fidelity == "low" or real_firmware or placement.in_process
-    return "native" if native else "mavlink"
+def wire_of(fidelity: Fidelity, real_firmware: bool = False) -> Wire:
+    """How sensor payloads travel between world and autopilot: native Structs at low fidelity
+    and beside real firmware (its world shares its bridge's process, which packs them for
+    PX4); above, MAVLink HIL frames, as PX4 SITL exchanges them, wherever the components run.
+
+    Not the placement: packing rounds floats to MAVLink's 32 bits, so a flight is the same
+    bits in process, as processes and in containers only if every placement packs.
+    """
+    return "native" if fidelity == "low" or real_firmware else "mavlink"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -101,18 +104,22 @@ class WorldComponent:
     """The quadrotor world as a component (point mass at low fidelity, MuJoCo above).
 
     ``placement`` is where it runs (a registered name, a Placement, or None: the fidelity's
-    default).
+    default); ``wire`` how its sensors travel (None: the fidelity's, :func:`wire_of`; real
+    PX4's bridge takes them native).
     """
 
     world: WorldConfig = dataclasses.field(default_factory=WorldConfig)
     fidelity: Fidelity = "low"
     name: str = "world"
     placement: str | Placement | None = None
+    wire: Wire | None = None
 
     def __post_init__(self) -> None:
         check_fidelity(self.fidelity)
         if not isinstance(self.world, WorldConfig):
             raise ConfigurationError("world", self.world, "a px4.WorldConfig")
+        if self.wire not in (None, "native", "mavlink"):
+            raise ConfigurationError("wire", self.wire, "None, 'native' or 'mavlink'")
         resolve(self.placement, self.fidelity)
 
     @property
@@ -122,7 +129,7 @@ class WorldComponent:
         return WorldSpec(
             model="point_mass" if low else "mujoco",
             world=self.world,
-            wire=wire_of(self.fidelity, resolve(self.placement, self.fidelity)),
+            wire=self.wire or wire_of(self.fidelity),
             point_mass_period=LOW_PERIOD,
         )
 
@@ -243,14 +250,13 @@ class PX4Component:
             "GF_MAX_VER_DIST": self.geofence.max_alt,
             **self.params,
         }
-        placement = resolve(self.placement, self.fidelity)
         return AutopilotSpec(
             airframe="point_mass" if low else "quadrotor",
             period=LOW_PERIOD if low else self.world.period,
             topics=self.topics or world_topics(self.world),
             uplink=f"{self.name}/mavlink/up",
             downlink=f"{self.name}/mavlink/down",
-            wire=wire_of(self.fidelity, placement, self.firmware is not None),
+            wire=wire_of(self.fidelity, self.firmware is not None),
             telemetry_rate=self.rate,
             params=params,
             mag_declination=self.world.declination,
@@ -359,7 +365,9 @@ class PX4Simulation(ScenarioSimulation):
         from .trace import trace_options
 
         component = self.firmware.component
-        return trace_options(component.spec, component.world, component.name)
+        options = trace_options(component.spec, component.world, component.name)
+        # Real PX4 runs its own threads: its runs repeat their verdicts, not their bits.
+        return dataclasses.replace(options, deterministic=component.firmware is None)
 
     def flight_logs(self) -> list[Path]:
         """Real PX4's ULog files so far (``log/**/*.ulg``; Flight Review reads them).
@@ -427,7 +435,9 @@ class PX4(Scenario[PX4Simulation]):
             resolve("in-process", fidelity) if firmware is not None else self.placement
         )
         self.world_id: NodeId[Node] = self._add_own(
-            WorldComponent(world, fidelity, placement=self.world_placement)
+            WorldComponent(
+                world, fidelity, placement=self.world_placement, wire=self._firmware.spec.wire
+            )
         )
         self.firmware_id: NodeId[PX4Node] = self._add_own(self._firmware, anchor=True)
 

@@ -29,16 +29,16 @@ from typing import Any
 import msgspec
 
 from ..local import Watch
-from ..mavlink.dialect import CMD_SET_MSG_INTERVAL, MSG_HIL_STATE_QUATERNION, dialect, new_link
+from ..mavlink.dialect import CMD_SET_MSG_INTERVAL, MSG_HIL_STATE_QUATERNION, dialect
 from ..mavlink.hil import (
     HilActuatorControls,
     HilGps,
     HilSensor,
     MavlinkPacket,
+    Packer,
     Truth,
     Wire,
     from_mavlink,
-    pack,
     unpack,
 )
 from ..mavlink.lockstep import RECV, FirstMavlinkClient, Lockstep, parse
@@ -101,7 +101,8 @@ class HilTcpBridge(Lockstep):
         self._clients = FirstMavlinkClient(server, name, "simulator client")
         self._conn: socket.socket | None = None
         self._parser: Any = None
-        self._link: Any = new_link(1, 51)  # what PX4's simulators call themselves
+        # One numbering for every frame PX4 gets; 51: what PX4's simulators call themselves.
+        self._packer = Packer(1, 51)
         self._d: Any = dialect()
         self._subs: list[Subscription[Any]] = []
         self._truth: Subscription[Truth] | None = None
@@ -176,7 +177,7 @@ class HilTcpBridge(Lockstep):
             # PX4 takes the first sensor time as its clock's start: it must not be zero.
             return
         frames = [
-            pack(_on_px4_clock(m)).data
+            self._packer.pack(_on_px4_clock(m)).data
             for sub in self._subs
             for p in sub.messages
             for m in (unpack(p) if isinstance(p, MavlinkPacket) else (p,))
@@ -203,7 +204,7 @@ class HilTcpBridge(Lockstep):
         if controls is None:
             return
         self.replies += 1
-        ctx.publish(self.topics.actuators, pack(controls) if self.wire == "mavlink" else controls)
+        ctx.publish(self.topics.actuators, self._packer.write(controls, self.wire))
 
     def _ground_truth(self, ctx: StepContext) -> bytes | None:
         sub = self._truth
@@ -233,9 +234,7 @@ class HilTcpBridge(Lockstep):
             0,
             0,
         )
-        data = bytes(msg.pack(self._link))
-        self._link.seq = (self._link.seq + 1) & 0xFF
-        return data
+        return self._packer.frame(msg)
 
     def _receive_controls(self, conn: socket.socket, start: float) -> HilActuatorControls | None:
         wait = self.lockstep_timeout if self.answering else BOOT_WAIT

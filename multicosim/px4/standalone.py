@@ -91,7 +91,7 @@ def run_sitl(
     # PX4's API-link streams: what MAVSDK and ground stations get from real PX4 SITL.
     spec = msgspec.structs.replace(px4.spec, streams="onboard")
     sim = ProcessSimulator(seed=seed, realtime=speed)
-    sim.add(WorldComponent(world, fidelity, placement="in-process"))
+    sim.add(WorldComponent(world, fidelity, placement="in-process", wire=spec.wire))
     sim.add(InProcessComponent(lambda: Autopilot(spec), "px4"))
     bridge_id = sim.add(
         InProcessComponent(lambda: UdpBridge(links, spec.uplink, spec.downlink, spec.period), "udp")
@@ -176,7 +176,7 @@ def run_real_sitl(
     component = PX4Component(world, "medium", params=params, firmware=sitl, placement=where)
     params = component.sitl_params()
     sim = where.simulator(seed=seed, realtime=speed)
-    sim.add(WorldComponent(world, "medium", placement="in-process"))
+    sim.add(WorldComponent(world, "medium", placement="in-process", wire="native"))
     px4_id: Any = sim.add(StandalonePX4(sitl, world, params, where))
     with sim.start() as simulation:
         instance = simulation.get(px4_id).instance

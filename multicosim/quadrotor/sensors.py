@@ -23,7 +23,16 @@ import math
 from typing import Any
 
 from ..core.geo import LocalProjection, pressure_hpa, rotate_to_body
-from ..mavlink.hil import BARO_FIELDS, IMU_FIELDS, MAG_FIELDS, HilGps, HilSensor, Wire, pack, truth
+from ..mavlink.hil import (
+    BARO_FIELDS,
+    IMU_FIELDS,
+    MAG_FIELDS,
+    HilGps,
+    HilSensor,
+    Packer,
+    Wire,
+    truth,
+)
 from ..physics.config import WorldConfig
 from ..physics.frames import NedState, Vec3
 from ..physics.obstacles import NO_OBSTACLES, Proximity
@@ -100,6 +109,7 @@ class HilSensors:
         self.proj = LocalProjection.at(world.home)
         self._noise = 0.0 if ideal else world.noise
         self._mavlink = wire == "mavlink"
+        self._packer = Packer()
         east, north, up = world.magnetic_field
         # Earth's field in NED gauss (the configuration is ENU tesla).
         self._field: Vec3 = (north * 1e4, east * 1e4, -up * 1e4)
@@ -221,4 +231,4 @@ class HilSensors:
         )
 
     def _emit(self, ctx: StepContext, topic: str, msg: HilSensor | HilGps) -> None:
-        ctx.publish(topic, pack(msg) if self._mavlink else msg)
+        ctx.publish(topic, self._packer.pack(msg) if self._mavlink else msg)

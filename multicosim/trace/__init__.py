@@ -21,11 +21,13 @@ well-known channels, whose schemas are Foxglove's published ones. Beside a trace
 (``.tlog``) where there is some, and a PNG plot (``multicosim plot`` redraws it).
 
 Log times are simulated time (nanoseconds from the start of the simulation), so the same seed
-gives a byte-identical trace.
+gives a byte-identical trace. :func:`fingerprint` hashes what a run routed; two runs of a seed
+that differ are located at their first differing sample (``--mcs-repeat`` uses it).
 
 Modules: ``_schemas`` (schemas), ``_convert`` (converters, TraceOptions), ``_recorder``,
-``_mcap`` (writing and reading MCAP), ``_tlog``, ``_layout``, ``_session`` (the active
-TestTrace), ``_hypothesis`` (Hypothesis's failing example), ``_plot``, ``_cli``.
+``_mcap`` (writing and reading MCAP), ``_fingerprint`` (a run's hash), ``_tlog``,
+``_layout``, ``_session`` (the active TestTrace), ``_hypothesis`` (Hypothesis's failing
+example), ``_plot``, ``_cli``.
 """
 
 from __future__ import annotations
@@ -54,6 +56,7 @@ from ._convert import (
     scene_entity,
     trace_options,
 )
+from ._fingerprint import Difference, Fingerprint, fingerprint
 from ._hypothesis import falsifying_example
 from ._layout import layout, message_path
 from ._mcap import METADATA_NAME, ChannelInfo, TraceData, TraceMessage, package_versions, read_trace
@@ -101,6 +104,8 @@ __all__ = [
     "ChannelInfo",
     "Converted",
     "Converter",
+    "Difference",
+    "Fingerprint",
     "Recorder",
     "Schema",
     "TestTrace",
@@ -111,6 +116,7 @@ __all__ = [
     "active",
     "falsifying_example",
     "find_scheduler",
+    "fingerprint",
     "fix_message",
     "foxglove_schema",
     "layout",

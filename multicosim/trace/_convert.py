@@ -223,6 +223,9 @@ class TraceOptions:
     channel per message type); the MAVLink frames of the ``tlog`` topics (a ``data`` bytes
     field) also go to a ``.tlog`` beside the trace; ``plots`` are the (title, message paths)
     that its Foxglove layout plots, e.g. a setpoint beside the value it commands.
+    ``deterministic`` is False where real firmware flies on its own threads (PX4,
+    ArduPilot): two runs of one seed then route other samples, and only their verdicts are
+    held to be the same (``--mcs-repeat``).
 
     A simulation offers them with a ``trace_options()`` method; recorders attached to it use
     them (their own ``types`` and ``converters`` take precedence).
@@ -234,6 +237,7 @@ class TraceOptions:
     replaced: Sequence[str] = ()
     tlog: Sequence[str] = ()
     plots: Sequence[tuple[str, Sequence[str]]] = ()
+    deterministic: bool = True
 
 
 def trace_options(simulation: object) -> TraceOptions:
@@ -262,6 +266,7 @@ def trace_options(simulation: object) -> TraceOptions:
         replaced=[t for o in found for t in o.replaced],
         tlog=[t for o in found for t in o.tlog],
         plots=[p for o in found for p in o.plots],
+        deterministic=all(o.deterministic for o in found),
     )
 
 

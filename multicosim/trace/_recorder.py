@@ -309,7 +309,7 @@ class Recorder:
 
     def _builtins(self, d: Delivery) -> Any:
         """The message as JSON-like builtins, objects as dicts, bytes kept (for converters)."""
-        return _to_builtins(self._typed(d))
+        return to_builtins(self._typed(d))
 
     def _payload(self, d: Delivery, topic_schema: dict[str, Schema]) -> tuple[bytes, Schema]:
         message = self._typed(d)
@@ -317,7 +317,7 @@ class Recorder:
         if _has_schema(tp) and not is_array_like(tp):
             payload = _encode(message)  # one pass: the common case of a Struct message
         else:
-            payload = _encode(_to_builtins(message))
+            payload = _encode(to_builtins(message))
         schema = topic_schema.get(d.topic)
         if schema is None:
             schema = topic_schema[d.topic] = _schema_of(message, payload)
@@ -330,7 +330,8 @@ _encoder = msgspec.json.Encoder()
 _KEEP = (bytes, bytearray, memoryview)
 
 
-def _to_builtins(message: Any) -> Any:
+def to_builtins(message: Any) -> Any:
+    """``message`` as JSON-like builtins (objects as dicts), bytes kept as they are."""
     if is_array_like(type(message)):
         return {
             f: msgspec.to_builtins(getattr(message, f), builtin_types=_KEEP)

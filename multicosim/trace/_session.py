@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 from ..core.errors import MulticosimError
 from ..local.simulation import add_start_observer
 from ._convert import TRAJECTORY_CHANNEL, Converter
+from ._fingerprint import Fingerprint, fingerprint
 from ._recorder import Recorder
 
 if TYPE_CHECKING:
@@ -161,6 +162,12 @@ class TestTrace:
     def evaluation(self) -> Evaluated | None:
         """The latest requirement evaluation noted, if any."""
         return self._evaluation[0] if self._evaluation is not None else None
+
+    def fingerprint(self) -> Fingerprint:
+        """The hash of every sample the test's simulations routed (see :func:`fingerprint`)."""
+        with self._lock:
+            recorders = list(self.recorders)
+        return fingerprint(recorders)
 
     def save(self, directory: str | Path, *, plot: bool = True, **metadata: object) -> list[Path]:
         """Write one MCAP trace per recorded simulation, and beside each its Foxglove layout

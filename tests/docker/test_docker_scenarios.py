@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from typing import Any
 
 import pytest
@@ -10,6 +11,7 @@ import pytest
 import multicosim as mcs
 import multicosim.px4 as px4
 import multicosim.rover as rover
+from multicosim import trace
 from multicosim.core.geo import LocalProjection
 from multicosim.docker import (
     ContainerComponent,
@@ -95,29 +97,55 @@ def test_px4_runs_world_and_autopilot_as_containers(engine: Any, image: str, our
     assert ours(run=run_id) == ([], [])
 
 
+PLACEMENTS = ("in-process", "process", "docker")
+
+
+def _same_bits(runs: Mapping[str, tuple[object, trace.Fingerprint]]) -> None:
+    """Every placement's result and every sample equal to the first placement's."""
+    (first, (result, reference)), *others = runs.items()
+    assert reference.samples > 100
+    for placement, (other, fingerprint) in others:
+        assert fingerprint == reference, (
+            f"{placement} differs from {first}: {reference.first_difference(fingerprint)}"
+        )
+        assert other == result
+
+
 @pytest.mark.parametrize("fidelity", ["low", "medium", "high"])
-def test_rover_same_seed_same_trajectory_on_process_and_docker(
+def test_rover_same_seed_same_bits_in_every_placement(
     engine: Any, image: str, fidelity: rover.Fidelity
 ) -> None:
-    runs = []
-    for placement in (None, "docker"):  # the fidelity's default placement, and containers
-        with rover.Rover(fidelity=fidelity, placement=placement, seed=11).start() as simulation:
-            runs.append(simulation.controller.send(SHORT_MISSION))
-    assert runs[0].completed, runs[0].reason
-    assert runs[0] == runs[1]
+    runs = {}
+    for placement in PLACEMENTS:
+        with (
+            rover.Rover(fidelity=fidelity, placement=placement, seed=11).start() as simulation,
+            trace.Recorder().attach(simulation) as recorder,
+        ):
+            result = simulation.controller.send(SHORT_MISSION)
+        runs[placement] = (result, trace.fingerprint([recorder]))
+    assert result.completed, result.reason
+    _same_bits(runs)
 
 
-@pytest.mark.parametrize("fidelity", ["low", "high"])
-def test_px4_same_seed_same_flight_on_process_and_docker(
+# Three legs with turns: the guidance's line-following and the turns' braking are flown.
+TURNS = px4.Configuration(
+    [_waypoint(20, 0, 8), _waypoint(20, 15, 10), _waypoint(0, 15, 8)], end="hold", time_limit=60.0
+)
+
+
+@pytest.mark.parametrize("fidelity", ["low", "medium", "high"])
+def test_px4_same_seed_same_bits_in_every_placement(
     engine: Any, image: str, fidelity: px4.Fidelity
 ) -> None:
-    results = []
-    for placement in (None, "docker"):  # the fidelity's default placement, and containers
+    runs = {}
+    for placement in PLACEMENTS:
         simulator = px4.PX4(fidelity=fidelity, placement=placement, seed=12)
-        with simulator.start() as simulation:
-            results.append(simulation.firmware.send(HOLD))
-    assert results[0].completed, results[0].reason
-    assert results[0] == results[1]
+        with simulator.start() as simulation, trace.Recorder().attach(simulation) as recorder:
+            result = simulation.firmware.send(TURNS)
+        runs[placement] = (result, trace.fingerprint([recorder]))
+    assert result.completed, result.reason
+    assert [r.index for r in result.reached] == [0, 1, 2]
+    _same_bits(runs)
 
 
 def test_px4_components_in_containers_check_their_image_first(engine: Any, image: str) -> None:
@@ -163,6 +191,7 @@ def test_docker_scenarios_take_in_process_components(engine: Any, image: str, ma
 
 FIXTURE_SUITE = """
 import multicosim.rover as rover
+from multicosim import trace
 import multicosim.px4 as px4
 from multicosim.docker import ContainerNode
 

@@ -6,34 +6,20 @@ simulated clock may stand still), not a bound on the mission.
 
 from __future__ import annotations
 
-import contextlib
 import os
-import subprocess
-import sys
-from collections.abc import Iterator
 
 import multicosim.ardupilot as ardupilot
 import multicosim.px4 as px4
 from multicosim.core.geo import LocalProjection
+from multicosim.local import CpuLoad
 from pytest_multicosim.px4 import RealPX4
 
 SEND_TIMEOUT = 2.0  # wall seconds the clock may stand still: far below a mission's wall time
 
 
-@contextlib.contextmanager
-def oversubscribed() -> Iterator[None]:
+def oversubscribed() -> CpuLoad:
     """Twice as many busy processes as the machine has cores, stopped on the way out."""
-    spinners = [
-        subprocess.Popen([sys.executable, "-c", "while True: pass"])
-        for _ in range(2 * (os.cpu_count() or 1))
-    ]
-    try:
-        yield
-    finally:
-        for p in spinners:
-            p.kill()
-        for p in spinners:
-            p.wait(10)
+    return CpuLoad(2 * (os.cpu_count() or 1))
 
 
 def mission(home: px4.Home) -> px4.Configuration:

@@ -149,6 +149,9 @@ BAD_VALUES = [
     ("mcs_seed", "-1", "allowed: a non-negative integer"),
     ("mcs_seed", "lucky", "allowed: a non-negative integer"),
     ("mcs_keep_traces", "some", "allowed: failed, all, none"),
+    ("mcs_repeat", "0", "allowed: an integer >= 1"),
+    ("mcs_repeat", "twice", "allowed: an integer >= 1"),
+    ("mcs_repeat_load", "-2", "allowed: an integer >= 0"),
 ]
 
 

@@ -182,10 +182,10 @@ def test_the_height_reference_follows_ekf2_hgt_ref(height_ref: int | None, desce
 
 
 def test_sensor_topics_carry_mavlink_frames_at_medium_wire() -> None:
-    from multicosim.mavlink.hil import HilSensor, pack, read, unpack
+    from multicosim.mavlink.hil import HilSensor, Packer, read, unpack
 
     msg = HilSensor(1, 0.1, 0.2, -9.8, 0.0, 0.0, 0.1, 0.2, 0.0, 0.4, 950.0, 0.0, 540.0, 12.0, 0x3F)
-    packet = pack(msg)
+    packet = Packer().pack(msg)
     assert isinstance(packet, MavlinkPacket)
     assert packet.data[0] == 0xFD
     (back,) = unpack(packet)
@@ -218,3 +218,42 @@ def test_path_gap_measures_where_two_flights_went() -> None:
     assert 0.0 < mean < worst
     with pytest.raises(mcs.ConfigurationError, match="above"):
         north.path_gap(east, above=100.0)
+
+
+def test_packed_hil_frames_are_pymavlink_s_byte_for_byte_numbered_by_their_packer() -> None:
+    import random
+
+    import msgspec
+
+    from multicosim.mavlink.dialect import dialect, new_link
+    from multicosim.mavlink.hil import HilActuatorControls, HilGps, HilSensor, Packer
+
+    rng = random.Random(0)
+    ours, reference = Packer(), new_link(1, 1)
+    d = dialect()
+    messages: list[tuple[Any, Any]] = []
+    for _ in range(300):
+        sensor = [rng.uniform(-100, 100) for _ in range(13)]
+        gps = [rng.randrange(0, 30000) for _ in range(7)]
+        big = [rng.randrange(-(2**31), 2**31) for _ in range(3)]
+        controls = [rng.uniform(-1, 1) for _ in range(16)]
+        messages += [
+            (
+                msgspec.convert([rng.randrange(2**40), *sensor, 0x3F], HilSensor),
+                d.MAVLink_hil_sensor_message,
+            ),
+            (
+                msgspec.convert([rng.randrange(2**40), 3, *big, *gps, 12], HilGps),
+                d.MAVLink_hil_gps_message,
+            ),
+            (
+                HilActuatorControls(rng.randrange(2**40), controls, 1, 129),
+                d.MAVLink_hil_actuator_controls_message,
+            ),
+        ]
+    for msg, cls in messages:
+        expected = bytes(cls(*msgspec.structs.astuple(msg)).pack(reference))
+        reference.seq = (reference.seq + 1) & 0xFF
+        assert ours.pack(msg).data == expected
+    # Each packer numbers its own frames: another one starts again at 0.
+    assert Packer().pack(messages[0][0]).data[4] == 0

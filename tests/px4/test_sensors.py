@@ -39,7 +39,8 @@ def _readings(seconds: float) -> tuple[list[HilGps], list[HilSensor], Any]:
             imu.extend(self.imu.messages)
 
     sim = mcs.ProcessSimulator(seed=3)
-    sim.add(WorldComponent(world, "medium", placement="in-process"))
+    # Native payloads: the models' noise itself, not MAVLink's 32-bit rounding of it.
+    sim.add(WorldComponent(world, "medium", placement="in-process", wire="native"))
     sim.add(mcs.InProcessComponent(Recorder, "recorder"))
     with sim.start() as simulation:
         simulation.advance(seconds)

@@ -173,7 +173,7 @@ def test_bridge_runs_the_world_in_lockstep_with_a_tcp_simulator_client(
     world = px4.WorldConfig(period=0.004)
     topics = world_topics(world)
     sim = mcs.ProcessSimulator(seed=0)
-    sim.add(WorldComponent(world, "medium", placement=placement))
+    sim.add(WorldComponent(world, "medium", placement=placement, wire=wire))
     bridge_id = sim.add(
         mcs.InProcessComponent(
             lambda: HilTcpBridge(
@@ -221,7 +221,7 @@ def test_bridge_runs_the_world_in_lockstep_with_a_tcp_simulator_client(
 def test_bridge_drops_a_client_that_speaks_no_mavlink() -> None:
     world = px4.WorldConfig(period=0.004)
     sim = mcs.ProcessSimulator(seed=0)
-    sim.add(WorldComponent(world, "medium", placement="in-process"))
+    sim.add(WorldComponent(world, "medium", placement="in-process", wire="native"))
     bridge_id = sim.add(
         mcs.InProcessComponent(
             lambda: HilTcpBridge(

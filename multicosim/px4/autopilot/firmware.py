@@ -23,7 +23,7 @@ import msgspec
 from ...core.errors import ConfigurationError
 from ...mavlink import dialect as _mav
 from ...mavlink.dialect import MISSION_STATE_NO_MISSION, decode_frames, dialect, new_link
-from ...mavlink.hil import HilGps, HilSensor, MavlinkPacket, Truth, Wire, pack, unpack
+from ...mavlink.hil import HilGps, HilSensor, MavlinkPacket, Packer, Truth, Wire, unpack
 from ...quadrotor.topics import Topics
 from ...runtime.context import StepContext, Subscription
 from ..modes import MainMode, Mode, SubMode
@@ -155,6 +155,7 @@ class Autopilot(Commander, Navigator, Failures, Commands, ParamServer, Missions,
         """Subscribe to the sensor topics and the ground-station uplink."""
         t = self.spec.topics
         native = self.spec.wire == "native"
+        self._packer = Packer()
         seen: set[str] = set()
         for topic in (t.imu, t.mag, t.baro, t.gps):
             if topic in seen:
@@ -196,7 +197,7 @@ class Autopilot(Commander, Navigator, Failures, Commands, ParamServer, Missions,
         self._commander()
         self.est.in_air = not self.landed
         out = self._navigate_and_control()
-        ctx.publish(self.spec.topics.actuators, pack(out) if self.spec.wire == "mavlink" else out)
+        ctx.publish(self.spec.topics.actuators, self._packer.write(out, self.spec.wire))
         self._stream()
         if self._out:
             data = b"".join(self._out)
