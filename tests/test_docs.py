@@ -70,6 +70,7 @@ LISTINGS = (
     "def test_the_gcas_pulls_out_of_the_dive",
     'fleet.PX4Vehicle(start=Pose(north=80.0))},\n    fidelity="low"',
     "def test_crossing_drones_lose_well_clear_but_never_touch",
+    "def test_close_encounters_never_collide",
     "real_ardupilot = ardupilot.SITL(",
 )
 
@@ -368,6 +369,12 @@ def test_fleet_pytest_listing_passes(pytester: pytest.Pytester) -> None:
     # PX4 classes they import) from sys.modules after it, under the other tests' feet.
     result = pytester.runpytest_subprocess("--mcs-fidelity=low,medium")
     result.assert_outcomes(passed=2)
+
+
+def test_fleet_encounters_listing_passes(pytester: pytest.Pytester) -> None:
+    pytester.makepyfile(_block("def test_close_encounters_never_collide"))
+    result = pytester.runpytest_subprocess()
+    result.assert_outcomes(passed=1)
 
 
 def test_fleet_of_every_autopilot_listing_runs(px4_sitl: RealPX4, ardupilot_dir: str) -> None:
