@@ -129,7 +129,9 @@ def run_repeated(item: pytest.Item, nextitem: pytest.Item | None, runs: int) -> 
     final = done[-1].reports
     target = next((r for r in final if r.when == "call"), None) or final[0]
     first = done[0].fingerprint
-    if found is None:
+    if found is None and any(r.skipped and not hasattr(r, "wasxfail") for r in final):
+        state = "skipped"  # the same skip every time proves nothing about the test
+    elif found is None:
         state = f"repeatable: {runs} runs" + ("" if first and first.samples else " (no samples)")
         if first is not None and not first.deterministic:
             parted = _parted(done)
@@ -231,6 +233,8 @@ class Repeater:
             return
         state = dict(report.user_properties).get(REPEAT_PROPERTY)
         if state is None:
+            return
+        if state == "skipped":
             return
         if state == "not repeatable":
             self.tally.differing += 1

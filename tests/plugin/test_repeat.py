@@ -21,6 +21,8 @@ import random
 import time
 from pathlib import Path
 
+import pytest
+
 import multicosim as mcs
 from multicosim import testing
 
@@ -66,6 +68,10 @@ def test_verdict_changes(mcs_simulator):
     assert len(runs.read_text()) != 2, "the second run fails"
 
 
+def test_skipped(mcs_simulator):
+    pytest.skip("nothing to fly here")
+
+
 def test_not_ours():
     counted = Path("plain")
     counted.write_text(counted.read_text() + "x" if counted.exists() else "x")
@@ -81,7 +87,7 @@ def result(pytester: pytest.Pytester) -> pytest.RunResult:
 def test_a_deterministic_test_is_proven_repeatable(
     pytester: pytest.Pytester, result: pytest.RunResult
 ) -> None:
-    result.assert_outcomes(passed=2, failed=3)
+    result.assert_outcomes(passed=2, failed=3, skipped=1)
     result.stdout.fnmatch_lines(
         [
             "multicosim: 1 test(s) proven repeatable (3 runs each with seed 0: same verdict and "
