@@ -18,6 +18,9 @@ import dataclasses
 from typing import Any
 
 import pytest
+
+# pytest's own protocol for one item (setup, call, teardown), which pytest supports running
+# again on the same item (it re-creates the item's fixture request), as rerun plugins do.
 from _pytest.runner import runtestprotocol
 
 from multicosim.local.load import CpuLoad
