@@ -2,6 +2,7 @@
 
     python bench/soak.py            # the scenario suites and PX4's conformance suites, 5 runs each
     python bench/soak.py --docs     # ... and the table on docs/reliability.md
+    python bench/soak.py --only scenarios-low --merge   # one suite again, keep the others'
     python bench/soak.py --smoke    # one suite, 2 runs (CI: does the soak still run?)
 
 Each suite runs as pytest does for a user, with ``--mcs-repeat=RUNS --mcs-repeat-load``: every
@@ -32,21 +33,24 @@ from _common import RELIABILITY_PAGE, RESULTS, ROOT, machine, replace_section
 
 START, END = "<!-- soak:start -->", "<!-- soak:end -->"
 
-# (name, pytest arguments): the scenario suites at every level the README's commands run, and
-# PX4's conformance suites (our answers against real PX4's, PX4's own MAVSDK cases), which fly
-# real PX4 too where it is configured (MCS_PX4_BINARY).
+# (key, name, pytest arguments): the scenario suites at every level the README's commands run,
+# and PX4's conformance suites (our answers against real PX4's, PX4's own MAVSDK cases). Real
+# PX4 and ArduPilot fly in them where they are configured (MCS_PX4_BINARY, MCS_ARDUPILOT_DIR).
 SUITES = (
-    ("scenario suites, low", ("scenarios", "--mcs-fidelity=low")),
-    ("scenario suites, medium", ("scenarios", "--mcs-fidelity=medium")),
+    ("scenarios-low", "scenario suites, low", ("scenarios", "--mcs-fidelity=low")),
+    ("scenarios-medium", "scenario suites, medium", ("scenarios", "--mcs-fidelity=medium")),
     (
+        "conformance",
         "PX4 conformance suites, medium",
         ("tests/px4/test_conformance.py", "tests/px4/test_px4_suite.py", "--mcs-fidelity=medium"),
     ),
 )
-SMOKE = (("rover scenarios, low", ("scenarios/test_rover.py", "--mcs-fidelity=low")),)
+SMOKE = (("rover", "rover scenarios, low", ("scenarios/test_rover.py", "--mcs-fidelity=low")),)
+# The environment that makes the suites fly real firmware, and which firmware it is.
+FIRMWARE_ENV = {"MCS_PX4_BINARY": "PX4", "MCS_PX4_IMAGE": "PX4", "MCS_ARDUPILOT_DIR": "ArduPilot"}
 
 
-def run_suite(name: str, args: tuple[str, ...], runs: int, load: int) -> dict[str, Any]:
+def run_suite(key: str, name: str, args: tuple[str, ...], runs: int, load: int) -> dict[str, Any]:
     """Run one suite repeated under load; what its JUnit report says, counted."""
     with tempfile.TemporaryDirectory(prefix="mcs-soak-") as tmp:
         report = Path(tmp) / "junit.xml"
@@ -75,7 +79,9 @@ def run_suite(name: str, args: tuple[str, ...], runs: int, load: int) -> dict[st
         counts = count(report)
     summary = next((line for line in result.stdout.splitlines() if "proven repeatable" in line), "")
     return {
+        "key": key,
         "suite": name,
+        "real_firmware": sorted(v for v in FIRMWARE_ENV if os.environ.get(v)),
         "command": "pytest " + " ".join(args) + f" --mcs-repeat={runs} --mcs-repeat-load={load}",
         "runs": runs,
         "busy_processes": load,
@@ -151,8 +157,11 @@ def table(results: dict[str, Any]) -> str:
     ]
     for s in results["suites"]:
         load = s["load_average"]
+        real = sorted({FIRMWARE_ENV[v] for v in s.get("real_firmware", ())})
+        name = s["suite"] + (f" (real {' and '.join(real)} too)" if real else "")
+        loads = f"{load['min']:g} to {load['max']:g}" if load["min"] is not None else "-"
         lines.append(
-            f"| {s['suite']} | {s['tests']} x {s['runs']} | {load['min']:g} to {load['max']:g} "
+            f"| {name} | {s['tests']} x {s['runs']} | {loads} "
             f"| {len(s['verdict_changes'])} | {len(s['sample_changes'])} "
             f"| {s['proven_repeatable']} | {s['real_firmware_same_verdict']} "
             f"| {s['wall_s'] / 60:.0f} min |"
@@ -176,14 +185,36 @@ def main() -> None:
     parser.add_argument("--smoke", action="store_true", help="one suite, 2 runs; writes nothing")
     parser.add_argument("--docs", action="store_true", help="write the reliability page's table")
     parser.add_argument("--output", type=Path, default=RESULTS / "soak.json")
+    parser.add_argument("--only", default="", help="suites to run, by key (comma list)")
+    parser.add_argument(
+        "--merge", action="store_true", help="keep the other suites' figures from --output"
+    )
     args = parser.parse_args()
     load = 2 * (os.cpu_count() or 1)
     suites = SMOKE if args.smoke else SUITES
+    if args.only:
+        wanted = args.only.split(",")
+        unknown = set(wanted) - {key for key, _, _ in SUITES}
+        if unknown:
+            parser.error(
+                f"--only: unknown suite(s) {sorted(unknown)}; allowed: "
+                f"{', '.join(key for key, _, _ in SUITES)}"
+            )
+        suites = tuple(s for s in SUITES if s[0] in wanted)
     runs = 2 if args.smoke else args.runs
     results: dict[str, Any] = {"machine": machine(), "suites": []}
-    for name, suite_args in suites:
-        found = run_suite(name, suite_args, runs, load)
-        results["suites"].append(found)
+    if args.merge and args.output.exists():
+        results["suites"] = json.loads(args.output.read_text())["suites"]
+    order = [key for key, _, _ in SUITES]
+    for key, name, suite_args in suites:
+        found = run_suite(key, name, suite_args, runs, load)
+        results["suites"] = sorted(
+            [s for s in results["suites"] if s.get("key") != key] + [found],
+            key=lambda s: order.index(s["key"]) if s.get("key") in order else len(order),
+        )
+        if not args.smoke:  # each suite's figures as soon as it is done
+            args.output.parent.mkdir(parents=True, exist_ok=True)
+            args.output.write_text(json.dumps(results, indent=2) + "\n")
         changes = len(found["verdict_changes"]) + len(found["sample_changes"])
         print(
             f"{name}: {found['tests']} tests x {runs} runs, {changes} changes; {found['summary']}"
@@ -193,8 +224,6 @@ def main() -> None:
         if bad:
             raise SystemExit(f"not repeatable: {', '.join(bad)}")
         return
-    args.output.parent.mkdir(parents=True, exist_ok=True)
-    args.output.write_text(json.dumps(results, indent=2) + "\n")
     section = table(results)
     print(section)
     if args.docs and not replace_section(RELIABILITY_PAGE, START, END, section):
