@@ -125,6 +125,10 @@ class ContainerNode:
         except NotFound:
             return None
         state = info["State"]
+        if self.memory and not state.get("OOMKilled") and state.get("ExitCode") == 137:
+            # Killed with a memory limit: the engine may hear of the kernel's OOM kill only
+            # after the exit it reports, so it is asked again, briefly, before it is believed.
+            state = self._settled_state(state)
         if state.get("OOMKilled"):
             limit = f" of {memory_text(self.memory)}" if self.memory else ""
             return Problem("out of memory", f"killed at its container's memory limit{limit}")
@@ -136,6 +140,17 @@ class ContainerNode:
         if network is not None and mode == network and network not in attached:
             return Problem("unreachable", f"disconnected from its simulation's network {network!r}")
         return None
+
+    def _settled_state(self, state: dict[str, Any], wait: float = 1.0) -> dict[str, Any]:
+        """The container's state once the engine says it was OOM-killed, or after ``wait`` s."""
+        deadline = time.monotonic() + wait
+        while not state.get("OOMKilled") and time.monotonic() < deadline:
+            time.sleep(0.05)
+            try:
+                state = self._api.inspect_container(self.id)["State"]
+            except NotFound:
+                break
+        return state
 
     def logs(self, tail: int | None = None) -> str:
         """The container's output (stdout and stderr), or its last ``tail`` lines."""
