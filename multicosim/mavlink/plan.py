@@ -20,6 +20,7 @@ from typing import Any, Literal
 import msgspec
 
 from ..core.errors import ConfigurationError
+from ..core.fields import FieldReader
 from .dialect import (
     CMD_DO_JUMP,
     CMD_FENCE_CIRCLE_EXCLUSION,
@@ -216,31 +217,11 @@ class Plan(msgspec.Struct, frozen=True, kw_only=True):
 # -- reading --------------------------------------------------------------------------------
 
 
-class _Reader:
+class _Reader(FieldReader):
     """Reads one plan file, naming the file and the JSON path of whatever is wrong."""
 
-    def __init__(self, path: Path) -> None:
-        self.path = path
-
-    def fail(self, where: str, value: object, allowed: str) -> ConfigurationError:
-        return ConfigurationError(f"{self.path}: {where}", value, allowed)
-
-    def obj(self, where: str, value: object) -> dict[str, Any]:
-        if not isinstance(value, dict):
-            raise self.fail(where, value, "a JSON object")
-        return value
-
-    def lst(self, where: str, value: object) -> list[Any]:
-        if not isinstance(value, list):
-            raise self.fail(where, value, "a JSON array")
-        return value
-
-    def num(self, where: str, value: object, *, null: bool = False) -> float:
-        if value is None and null:
-            return math.nan
-        if isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value):
-            return float(value)
-        raise self.fail(where, value, "a finite number" + (" or null" if null else ""))
+    MAPPING = "a JSON object"
+    LIST = "a JSON array"
 
     def coordinate(self, where: str, value: object) -> tuple[float, float]:
         pair = self.lst(where, value)
