@@ -9,7 +9,8 @@ One file is one test::
     autopilot: px4                 # px4 (built-in, and real PX4 where named) or ardupilot
     fidelity: [low, medium]        # default: every level the autopilot flies
     plan: corridor.plan            # QGroundControl .plan, relative to this file
-    params: corridor.params        # optional: PX4 "param set" lines, QGC .params, or name,value CSV
+    params: corridor.params        # optional: PX4 "param set" lines, QGC .params, name,value CSV
+                                   # (or the values themselves: {MPC_XY_CRUISE: 8})
     obstacles:
       - {type: box, north: 40, east: 6, length: 4, width: 4, height: 30, yaw: 20}
       - {type: cylinder, north: 70, east: -5, radius: 1.5, height: 25}
@@ -17,19 +18,26 @@ One file is one test::
     requirements:                  # signal temporal logic over the trajectory's signals
       - always (clearance >= 1.5)
       - always (true_alt <= 40)
+    time_limit: 500                # optional: simulated seconds the mission may take
+    score: competition             # optional: also judge it as the UAV test competition does
 
 A file is collected as a module whose one test (named after the file) is parametrized over
 the fidelity levels like any ``@pytest.mark.fidelity`` test, runs on the vehicle fixtures
 (``px4_simulator``, ``ardupilot_copter_simulator``: real PX4 where ``--mcs-px4-binary`` names
 one, artifacts, replay command) and fails when the vehicle collides, when the mission does
-not complete, or when a requirement is violated, in that order. A malformed file is a
-collection error naming the file, the field and what is allowed.
+not complete, or when a requirement is violated, in that order. With ``score: competition``
+the flight is also scored as the UAV Testing Competition scores it
+(:mod:`multicosim.px4.competition`): its distances to the obstacles, its points and verdict
+become the test's properties, and closer than 1.5 m fails it (a soft fail) after a collision
+(a hard fail). A malformed file is a collection error naming the file, the field and what is
+allowed.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import functools
+from collections.abc import Callable
 from pathlib import Path
 from types import ModuleType
 from typing import Any, Literal
@@ -57,11 +65,13 @@ class Case(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fields=True
     plan: str
     autopilot: Autopilot = "px4"
     fidelity: tuple[str, ...] = ()
-    params: str | None = None
+    params: str | dict[str, float] | None = None
     obstacles: tuple[Box | Cylinder, ...] = ()
     wind: Wind | None = None
     requirements: tuple[str, ...] = ()
     description: str = ""
+    time_limit: float | None = None
+    score: Literal["", "competition"] = ""
 
 
 class CaseError(ConfigurationError):
@@ -103,9 +113,11 @@ def load_case(path: Path) -> Case:
             raise CaseError(path, "fidelity", f"{level!r} is no level; allowed: {allowed}")
     if case.autopilot == "ardupilot" and "low" in case.fidelity:
         raise CaseError(path, "fidelity", "ardupilot flies MuJoCo: medium or high, not 'low'")
+    if case.time_limit is not None and not case.time_limit > 0:
+        raise CaseError(path, "time_limit", f"{case.time_limit!r}: simulated seconds above 0")
     for field in ("plan", "params"):
         name = getattr(case, field)
-        if name is not None and not (path.parent / name).is_file():
+        if isinstance(name, str) and not (path.parent / name).is_file():
             raise CaseError(path, field, f"{name!r} is no file (names are relative to the case)")
     return case
 
@@ -115,22 +127,64 @@ def is_case(path: Path) -> bool:
     return path.name.startswith("test_") and path.name.endswith(SUFFIXES)
 
 
-def _fly(case: Case, path: Path, simulation: Any) -> None:
+Record = Callable[[str, object], None]
+"""Records a name and value on the test: its report and JUnit XML show them."""
+
+
+def _recorder(request: pytest.FixtureRequest) -> Record:
+    # As the reports' own properties are added: record_property would warn under JUnit's
+    # default xunit2 family, which keeps them all the same.
+    def record(name: str, value: object) -> None:
+        request.node.user_properties.append((name, value))
+
+    return record
+
+
+def _name(case: Case, index: int) -> str:
+    obstacle = case.obstacles[index]
+    return f"{obstacle.name!r}" if obstacle.name else f"obstacles[{index}]"
+
+
+def _judge(case: Case, result: Any, record: Record) -> str | None:
+    """Score the flight as the UAV test competition does, recording its figures; why it
+    soft-fails (closer than its safe distance, without a collision), or None."""
+    from multicosim.px4.competition import SAFE_DISTANCE, score
+
+    judged = score(result.trajectory, case.obstacles, result.collision is not None)
+    record("competition_min_dist", f"{judged.min_distance:.3f}")
+    record("competition_distances", ", ".join(f"{d:.3f}" for d in judged.distances))
+    record("competition_point", judged.point)
+    record("competition_verdict", judged.verdict)
+    record("mcs_simulated_s", f"{result.duration:.3f}")
+    if judged.verdict != "soft fail":
+        return None
+    nearest = judged.distances.index(judged.min_distance)
+    return (
+        f"soft fail: the vehicle came {judged.min_distance:.2f} m from {_name(case, nearest)}, "
+        f"within the competition's safe distance of {SAFE_DISTANCE:g} m ({judged.point} points)"
+    )
+
+
+def _fly(case: Case, path: Path, simulation: Any, record: Record) -> None:
     """Fly the case's plan on a started simulation and judge the flight."""
     from multicosim.mavlink.mission import Configuration
     from multicosim.search.requirements import Requirement
 
-    config = Configuration.from_plan(path.parent / case.plan)
+    limit = {"time_limit": case.time_limit} if case.time_limit is not None else {}
+    config = Configuration.from_plan(path.parent / case.plan, **limit)
     result = simulation.firmware.send(config)
+    soft = _judge(case, result, record) if case.score == "competition" else None
     hit = result.collision
     if hit is not None:
         obstacle = case.obstacles[hit.obstacle]
-        name = f"{obstacle.name!r}" if obstacle.name else f"obstacles[{hit.obstacle}]"
+        hard = "hard fail: " if case.score == "competition" else ""
         pytest.fail(
-            f"the vehicle hit {name} ({type(obstacle).__name__.lower()}) at t={hit.time:.2f} s, "
-            f"at {hit.speed:.1f} m/s",
+            f"{hard}the vehicle hit {_name(case, hit.obstacle)} "
+            f"({type(obstacle).__name__.lower()}) at t={hit.time:.2f} s, at {hit.speed:.1f} m/s",
             pytrace=False,
         )
+    if soft is not None:
+        pytest.fail(soft, pytrace=False)
     assert result.completed, f"the mission did not complete: {result.reason}"
     for formula in case.requirements:
         Requirement(formula).check(result.trajectory)
@@ -141,12 +195,16 @@ def _module(path: Path, case: Case) -> ModuleType:
     module = ModuleType(path.name)
     module.__file__ = str(path)
     name = "test_" + path.name.removeprefix("test_").split(".", 1)[0].replace("-", "_")
-    params = functools.partial(_params, path.parent / case.params) if case.params else dict
+    params: Callable[[], dict[str, float]] = dict
+    if isinstance(case.params, dict):
+        params = functools.partial(dict, case.params)
+    elif case.params:
+        params = functools.partial(_params, path.parent / case.params)
 
     if case.autopilot == "px4":
 
-        def test(px4_simulation: Any) -> None:
-            _fly(case, path, px4_simulation)
+        def test(px4_simulation: Any, request: pytest.FixtureRequest) -> None:
+            _fly(case, path, px4_simulation, _recorder(request))
 
         @pytest.fixture
         def px4_world(mcs_fidelity: str) -> Any:
@@ -163,8 +221,10 @@ def _module(path: Path, case: Case) -> ModuleType:
         module.px4_params = px4_params  # type: ignore[attr-defined]
     else:
 
-        def test(ardupilot_copter_simulation: Any) -> None:  # type: ignore[misc]
-            _fly(case, path, ardupilot_copter_simulation)
+        def test(  # type: ignore[misc]
+            ardupilot_copter_simulation: Any, request: pytest.FixtureRequest
+        ) -> None:
+            _fly(case, path, ardupilot_copter_simulation, _recorder(request))
 
         @pytest.fixture
         def ardupilot_world(mcs_fidelity: str) -> Any:
@@ -196,9 +256,13 @@ def _params(path: Path) -> dict[str, float]:
 class CaseFile(pytest.Module):
     """A case file collected as a module of one test (pytest's own collection does the rest)."""
 
+    def load(self) -> Case:
+        """The case in the file (a file of another format reads itself into one)."""
+        return load_case(self.path)
+
     def _getobj(self) -> ModuleType:
         try:
-            case = load_case(self.path)
+            case = self.load()
         except ConfigurationError as exc:
             raise self.CollectError(str(exc)) from None
         return _module(self.path, case)

@@ -77,6 +77,8 @@ class Settings:
     """How many times each simulation test runs (``--mcs-repeat``)."""
     repeat_load: int = 0
     """Busy processes the plugin starts while tests repeat (``--mcs-repeat-load``)."""
+    competition: tuple[Path, ...] = ()
+    """Folders whose UAV test competition cases are collected (``--mcs-competition``)."""
 
     def replay_args(self, fidelity: str | None) -> str:
         """Command-line options that replay a test with the same seed, fidelity and placement,
@@ -193,6 +195,15 @@ def add_options(parser: pytest.Parser) -> None:
         help="while tests repeat, keep N busy processes running (alone: twice as many as "
         "cores; default: 0)",
     )
+    group.addoption(
+        "--mcs-competition",
+        dest="mcs_competition",
+        action="append",
+        default=None,
+        metavar="DIR",
+        help="collect the UAV test competition's cases in DIR and below (YAML files with "
+        "drone: and simulation:, as its test generators write them); repeatable",
+    )
     parser.addini("mcs_fidelity", "default for --mcs-fidelity", default="low")
     parser.addini("mcs_placement", "default for --mcs-placement", default="")
     parser.addini("mcs_seed", "default for --mcs-seed", default="0")
@@ -205,6 +216,9 @@ def add_options(parser: pytest.Parser) -> None:
     parser.addini("mcs_ray", "default for --mcs-ray", default="")
     parser.addini("mcs_repeat", "default for --mcs-repeat", default="1")
     parser.addini("mcs_repeat_load", "default for --mcs-repeat-load", default="0")
+    parser.addini(
+        "mcs_competition", "default for --mcs-competition (folders)", type="paths", default=[]
+    )
 
 
 def given(config: pytest.Config) -> bool:
@@ -314,8 +328,35 @@ def read_settings(config: pytest.Config) -> Settings:
     repeat = _count(config, "mcs_repeat", 1)
     repeat_load = _count(config, "mcs_repeat_load", 0)
     return Settings(
-        fidelity, placement or None, seed, artifacts, keep, ray or None, repeat, repeat_load
+        fidelity,
+        placement or None,
+        seed,
+        artifacts,
+        keep,
+        ray or None,
+        repeat,
+        repeat_load,
+        _folders(config),
     )
+
+
+def _folders(config: pytest.Config) -> tuple[Path, ...]:
+    """The competition's folders: the command line's (relative to where pytest was invoked),
+    else the ini file's (relative to it)."""
+    given_dirs: list[str] | None = config.getoption("mcs_competition")
+    if given_dirs:
+        source = "--mcs-competition"
+        folders = [config.invocation_params.dir / d for d in given_dirs]
+    else:
+        source = "mcs_competition (in the ini file)"
+        folders = [Path(p) for p in config.getini("mcs_competition")]
+    for folder in folders:
+        if not folder.is_dir():
+            raise pytest.UsageError(
+                f"{source}: {str(folder)!r} is not a folder; allowed: a folder of the UAV test "
+                "competition's cases (YAML files with drone: and simulation:)"
+            )
+    return tuple(folder.absolute() for folder in folders)
 
 
 def _count(config: pytest.Config, name: str, least: int) -> int:

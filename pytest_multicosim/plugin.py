@@ -19,7 +19,7 @@ from pathlib import Path
 
 import pytest
 
-from . import fixtures, libraries, repeat
+from . import fixtures, libraries, repeat, scores
 from ._signals import SigtermAsInterrupt
 from .activity import Activity, activity_key, acts_for, fixture_names, nested
 from .artifacts import recording
@@ -52,6 +52,9 @@ def pytest_configure(config: pytest.Config) -> None:
         explicit=given(config), fixtures=fixture_names([fixtures, *loaded])
     )
     config.stash[sigterm_key] = SigtermAsInterrupt()
+    # Sums up competition-scored flights, if any run (it prints nothing otherwise).
+    if not config.pluginmanager.has_plugin(scores.PLUGIN_NAME):
+        config.pluginmanager.register(scores.Tally(), scores.PLUGIN_NAME)
     if config.stash[settings_key].repeat > 1 and not config.pluginmanager.has_plugin(
         repeat.PLUGIN_NAME
     ):
@@ -74,6 +77,11 @@ def pytest_unconfigure(config: pytest.Config) -> None:
 def pytest_collect_file(file_path: Path, parent: pytest.Collector) -> pytest.Collector | None:
     # Test cases as files (test_*.mcs.yaml): a name no other plugin collects. The module
     # (and the world's types it reads) loads only where there is one.
+    if parent.config.stash[settings_key].competition:
+        from .competition import CompetitionFile, is_competition_case
+
+        if is_competition_case(file_path, parent.config):
+            return CompetitionFile.from_parent(parent, path=file_path)
     if ".mcs." not in file_path.name:
         return None
     from .cases import CaseFile, is_case
