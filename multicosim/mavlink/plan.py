@@ -378,7 +378,8 @@ def read_plan(path: str | Path) -> Plan:
 def _json_number(value: float) -> float | int | None:
     if math.isnan(value):
         return None
-    return int(value) if value.is_integer() and abs(value) < 2**53 else value
+    # float(): a plan built in Python may carry ints, which have no is_integer() before 3.12
+    return int(value) if float(value).is_integer() and abs(value) < 2**53 else value
 
 
 def _item_json(index: int, item: PlanItem) -> dict[str, Any]:

@@ -149,6 +149,17 @@ def test_a_plain_configuration_writes_a_plan_that_reads_back(tmp_path: Path) -> 
     assert (again.end, again.cruise_speed) == ("rtl", 4.0)
 
 
+def test_whole_numbers_written_as_python_ints_read_back(tmp_path: Path) -> None:
+    lat, lon = PROJ.reproject(40.0, 10.0)
+    # ints where floats are declared, as a user's literal writes them
+    config = px4.Configuration([px4.Waypoint(lat, lon, 12)], cruise_speed=4)
+    out = tmp_path / "ints.plan"
+    config.to_plan(out, home=HOME)
+    again = px4.Configuration.from_plan(out)
+    assert again.mission[0].alt == 12.0
+    assert again.cruise_speed == 4.0
+
+
 # -- refused plans ---------------------------------------------------------------------------
 
 
