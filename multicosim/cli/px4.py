@@ -4,11 +4,16 @@
     multicosim px4 sitl --speed 5 --fidelity medium
     multicosim px4 sitl --px4-binary ../shared/px4-sitl/bin/px4 --speed 10   # real PX4
     multicosim px4 sitl --plan mission.plan --params vehicle.params --speed 20
+    multicosim px4 sitl --count 3                        # three vehicles in one world
+    multicosim px4 sitl --count 2 --px4-binary ../shared/px4-sitl/bin/px4
 
 QGroundControl (UDP 14550), MAVProxy (``--master udpin:127.0.0.1:14550``) or MAVSDK
 (``udpin://0.0.0.0:14540``) connect and fly it as they would PX4 SITL with Gazebo. With
 ``--plan``, multicosim's own ground station flies a QGroundControl plan instead, and the
-command ends with the flight.
+command ends with the flight. With ``--count N``, N vehicles share one world, each on the
+ports PX4's multi-vehicle SITL gives instance i (MAVSDK on 14540 + i, MAV_SYS_ID i + 1,
+every vehicle to QGroundControl on 14550), 3 m apart northwards as PX4's multi-vehicle
+Gazebo script spawns them.
 Ctrl-C or SIGTERM stops it and everything it started.
 """
 
@@ -21,8 +26,12 @@ import signal
 import sys
 import threading
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import msgspec
+
+if TYPE_CHECKING:
+    from ..px4.sitl import SITL
 
 __all__ = ["main"]
 
@@ -83,6 +92,13 @@ def main(argv: list[str] | None = None) -> int:
         default=None,
         help="fly real PX4 in a container of this image (multicosim images build --px4-dir)",
     )
+    p.add_argument(
+        "--count",
+        type=int,
+        default=1,
+        help="vehicles in one world, each on PX4's ports for its instance (as PX4's "
+        "multi-vehicle SITL; with --px4-binary, that many real PX4 instances)",
+    )
     add_plan_options(p)
     p.add_argument("-v", "--verbose", action="store_true", help="log debug messages")
     launch = sub.add_parser(
@@ -108,11 +124,27 @@ def main(argv: list[str] | None = None) -> int:
     )
     if not args.speed > 0:
         parser.error("--speed must be positive")
+    from ..mavlink.udp import API_PORT, GCS_PORT
+
+    if not args.count >= 1:
+        parser.error(f"--count {args.count}: expected a number of vehicles, 1 or more")
+    if args.count > 1:
+        if args.plan:
+            parser.error("--plan flies one vehicle; give --count 1 (or fly a fleet in Python)")
+        if (args.gcs_port, args.api_port, args.host) != (GCS_PORT, API_PORT, "127.0.0.1"):
+            parser.error(
+                "--gcs-port, --api-port and --host set one vehicle's links; with --count "
+                "each vehicle has PX4's ports for its instance"
+            )
     if args.plan:
         return run_command("multicosim px4 sitl", lambda: _plan(args), verbose=args.verbose)
     stop = threading.Event()
     # SIGTERM ends the run as cleanly as Ctrl-C does.
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    if args.count > 1:
+        return run_command(
+            "multicosim px4 sitl", lambda: _fleet(parser, args, stop), verbose=args.verbose
+        )
     if args.px4_binary or args.px4_image:
         return run_command("multicosim px4 sitl", lambda: _real(parser, args, stop))
     from ..mavlink.udp import Link
@@ -153,15 +185,11 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _real(parser: argparse.ArgumentParser, args: argparse.Namespace, stop: threading.Event) -> int:
-    from ..core.errors import ConfigurationError
     from ..mavlink.udp import API_PORT, GCS_PORT
-    from ..px4.sitl import SITL
     from ..px4.standalone import run_real_sitl
 
-    try:
-        sitl = SITL(binary=args.px4_binary, image=None if args.px4_binary else args.px4_image)
-    except ConfigurationError as exc:
-        parser.error(str(exc))
+    sitl = _sitl(parser, args)
+    assert sitl is not None
 
     def ready(instance: int, run_dir: Path) -> None:
         print(
@@ -180,6 +208,59 @@ def _real(parser: argparse.ArgumentParser, args: argparse.Namespace, stop: threa
             stop=stop,
             on_ready=ready,
         )
+    return 0
+
+
+def _sitl(parser: argparse.ArgumentParser, args: argparse.Namespace) -> SITL | None:
+    """Real PX4 as the options name it (None: the built-in autopilot)."""
+    from ..core.errors import ConfigurationError
+    from ..px4.sitl import SITL
+
+    if not (args.px4_binary or args.px4_image):
+        return None
+    try:
+        return SITL(binary=args.px4_binary, image=None if args.px4_binary else args.px4_image)
+    except ConfigurationError as exc:
+        parser.error(str(exc))
+
+
+def _fleet(parser: argparse.ArgumentParser, args: argparse.Namespace, stop: threading.Event) -> int:
+    """``--count N``: N vehicles in one world, each a PX4 instance on its own ports."""
+    from ..fleet import Fleet, PX4Vehicle
+    from ..mavlink.udp import API_PORT, GCS_PORT
+    from ..physics import Pose
+    from ..px4.standalone import run_until
+
+    firmware = _sitl(parser, args)
+    vehicle_params = _params(args)
+    simulator = Fleet(
+        {
+            f"iris_{i}": PX4Vehicle(
+                start=Pose(north=3.0 * i), firmware=firmware, params=vehicle_params, own_links=True
+            )
+            for i in range(args.count)
+        },
+        fidelity=args.fidelity,
+        # Only an image: PX4 runs in containers of it.
+        placement="docker" if firmware is not None and firmware.binary is None else None,
+        seed=args.seed,
+        realtime=args.speed,
+    )
+    with simulator.start() as simulation:
+        for name, node in simulation.vehicles.items():
+            print(
+                f"{name}: PX4 instance {node.instance} (MAV_SYS_ID {node.instance + 1}), "
+                f"MAVSDK on udpin://0.0.0.0:{API_PORT + node.instance}",
+                flush=True,
+            )
+        kind = "real PX4" if firmware is not None else args.fidelity
+        print(
+            f"multicosim px4 sitl ({kind}) ready: {args.count} vehicles, QGroundControl on "
+            f"UDP {GCS_PORT} (logs: {simulation.run_dir})",
+            flush=True,
+        )
+        with contextlib.suppress(KeyboardInterrupt):
+            run_until(simulation, args.duration, stop)
     return 0
 
 

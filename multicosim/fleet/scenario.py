@@ -41,7 +41,7 @@ from ..placement import ParticipantProgram, Placement, Scenario, ScenarioSimulat
 from ..px4.procedure import PX4Procedure
 from ..px4.scenario import LOW_PERIOD, PX4Component, default_world, sitl_period
 from ..px4.sitl import SENSOR_RATE, SITL
-from ..px4.standalone import StandalonePX4, paced_params
+from ..px4.standalone import StandaloneAutopilot, StandalonePX4, paced_params
 from ..px4.world import WorldSpec
 from ..quadrotor.airframe import NONE_IRIS
 from ..quadrotor.topics import SENSORS
@@ -70,8 +70,9 @@ class PX4Vehicle:
     params: Mapping[str, float] = dataclasses.field(default_factory=dict)
     placement: str | Placement | None = None
     own_links: bool = False
-    """Real PX4 keeping its usual MAVLink ports (QGroundControl on UDP 14550, MAVSDK on
-    14540 + its instance), for a ground station of one's own; ``fly`` does not fly it."""
+    """On PX4's usual MAVLink ports for its instance N (QGroundControl on UDP 14550, MAVSDK on
+    14540 + N, MAV_SYS_ID N + 1), for a ground station of one's own; ``fly`` does not fly
+    it. Real PX4 claims N as ``px4 -i N`` does; the built-in autopilot claims it likewise."""
 
     def __post_init__(self) -> None:
         if not isinstance(self.start, Pose):
@@ -79,10 +80,6 @@ class PX4Vehicle:
         if self.firmware is not None and not isinstance(self.firmware, SITL):
             raise ConfigurationError(
                 "firmware", self.firmware, "None (the built-in autopilot) or a px4.SITL"
-            )
-        if self.own_links and self.firmware is None:
-            raise ConfigurationError(
-                "own_links", True, "False for the built-in autopilot (only real PX4 has them)"
             )
 
 
@@ -298,13 +295,16 @@ class Fleet(Scenario[FleetSimulation]):
             added: Any = component
             if name in own:
                 px4 = self._px4(name)
-                assert px4.firmware is not None
-                added = StandalonePX4(
-                    px4.firmware,
-                    px4.world,
-                    px4.sitl_params(),
-                    resolve(px4.placement, self.fidelity),
-                    name,
+                added = (
+                    StandaloneAutopilot(px4)
+                    if px4.firmware is None
+                    else StandalonePX4(
+                        px4.firmware,
+                        px4.world,
+                        px4.sitl_params(),
+                        resolve(px4.placement, self.fidelity),
+                        name,
+                    )
                 )
             node_id = self._add_own(added, anchor=first is None)
             first = first or node_id

@@ -275,9 +275,11 @@ class PX4Component:
             **self.firmware.params,
         }
 
-    def _autopilot(self) -> Component[Any, Node]:
+    def autopilot(self, spec: AutopilotSpec | None = None) -> Component[Any, Node]:
+        """The built-in autopilot, where it is placed (``spec``: its configuration, None:
+        ``self.spec``)."""
         program = ParticipantProgram(
-            "multicosim.px4.autopilot.firmware:autopilot", self.spec, self.name
+            "multicosim.px4.autopilot.firmware:autopilot", spec or self.spec, self.name
         )
         return resolve(self.placement, self.fidelity).participant(program)
 
@@ -289,14 +291,14 @@ class PX4Component:
             return preflight_program(
                 placement, self.name, command=self.firmware.binary is not None, image=image
             )
-        return tuple(required_images(self._autopilot()))
+        return tuple(required_images(self.autopilot()))
 
     def start(self, environment: LocalEnvironment) -> PX4Node:
         """Start the autopilot where it is placed, then the ground station here."""
         spec = self.spec
         if self.firmware is not None:
             return self._start_sitl(environment, spec)
-        return self._with_ground_station(environment, self._autopilot().start(environment))
+        return self._with_ground_station(environment, self.autopilot().start(environment))
 
     def gcs_spec(self) -> GcsSpec:
         """What a ground station flying this autopilot needs: its link, the world's truth,

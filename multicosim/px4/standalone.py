@@ -25,11 +25,18 @@ from ..physics.config import WorldConfig
 from ..placement import Placement, as_placement
 from ..placement.firmware import FirmwareNodes
 from ..quadrotor.topics import world_topics
-from .autopilot.firmware import Autopilot
 from .scenario import PX4Component, WorldComponent
 from .sitl import SITL
 
-__all__ = ["StandalonePX4", "paced_params", "run_real_sitl", "run_sitl"]
+__all__ = [
+    "StandaloneAutopilot",
+    "StandaloneNodes",
+    "StandalonePX4",
+    "paced_params",
+    "run_real_sitl",
+    "run_sitl",
+    "run_until",
+]
 
 log = logging.getLogger(__name__)
 
@@ -88,28 +95,83 @@ def run_sitl(
     links = links if links is not None else [Link(GCS_PORT, 18570), Link(API_PORT, 14580)]
     params = {**paced_params(speed), **(params or {})}
     px4 = PX4Component(world, fidelity, params=params, placement="in-process")
-    # PX4's API-link streams: what MAVSDK and ground stations get from real PX4 SITL.
-    spec = msgspec.structs.replace(px4.spec, streams="onboard")
     sim = ProcessSimulator(seed=seed, realtime=speed)
-    sim.add(WorldComponent(world, fidelity, placement="in-process", wire=spec.wire))
-    sim.add(InProcessComponent(lambda: Autopilot(spec), "px4"))
-    bridge_id = sim.add(
-        InProcessComponent(lambda: UdpBridge(links, spec.uplink, spec.downlink, spec.period), "udp")
-    )
+    sim.add(WorldComponent(world, fidelity, placement="in-process", wire=px4.spec.wire))
+    px4_id: Any = sim.add(StandaloneAutopilot(px4, tuple(links)))
     with sim.start() as simulation:
-        bridge: Any = simulation.get(bridge_id).participant
         if on_ready is not None:
-            on_ready(bridge.local_ports)
+            on_ready(simulation.get(px4_id).ports)
         log.info("SITL running at %gx real time; links %s", speed, links)
-        return _run(simulation, duration, stop)
+        return run_until(simulation, duration, stop)
 
 
-def _run(simulation: Any, duration: float | None, stop: threading.Event | None) -> float:
-    """Advance ``simulation`` until ``duration`` or ``stop``; the simulated time reached."""
+def run_until(simulation: Any, duration: float | None, stop: threading.Event | None) -> float:
+    """Advance ``simulation`` (paced, if it is) until ``duration`` simulated seconds or
+    ``stop``; the simulated time reached."""
     while (stop is None or not stop.is_set()) and (duration is None or simulation.time < duration):
         step = 0.25 if duration is None else min(0.25, duration - simulation.time)
         simulation.advance(max(step, 1e-3))
     return float(simulation.time)
+
+
+class StandaloneNodes(FirmwareNodes):
+    """The built-in autopilot and its UDP links, stopped as one; ``ports`` the links' own."""
+
+    ports: list[int]
+
+
+@dataclasses.dataclass(frozen=True)
+class StandaloneAutopilot:
+    """The built-in autopilot with MAVLink UDP links only, for a ground station of one's own.
+
+    ``links`` None: PX4 instance N's own links, N the first free instance (claimed as real
+    PX4's is): ground stations on UDP 14550 and MAVSDK on 14540 + N, MAV_SYS_ID N + 1 unless
+    ``component``'s params set it, as PX4's start-up script sets them for ``px4 -i N``.
+    It sends what real PX4 sends on its API link.
+    """
+
+    component: PX4Component
+    links: tuple[Link, ...] | None = None
+    host: str = "127.0.0.1"
+
+    @property
+    def name(self) -> str:
+        """The autopilot's name (its topics' prefix)."""
+        return self.component.name
+
+    def required_images(self) -> tuple[str, ...]:
+        """The images its autopilot's placement needs."""
+        return self.component.required_images()
+
+    def start(self, environment: LocalEnvironment) -> StandaloneNodes:
+        """Start the autopilot where it is placed and its links here."""
+        from .sitl import claim_instance, gateway_links
+
+        group = StandaloneNodes(self.name)
+        spec = msgspec.structs.replace(self.component.spec, streams="onboard")
+        links = list(self.links or ())
+        claim = None
+        with group.starting():
+            try:
+                if self.links is None:
+                    group.instance, claim = claim_instance(self.host, gcs_link=True)
+                    links = [
+                        Link(link.port, link.local_port, self.host)
+                        for link in gateway_links(self.host, group.instance)
+                    ]
+                    params = {"MAV_SYS_ID": group.instance + 1.0, **spec.params}
+                    spec = msgspec.structs.replace(spec, params=params)
+                group.add("autopilot", self.component.autopilot(spec).start(environment))
+                bridge = InProcessComponent(
+                    lambda: UdpBridge(links, spec.uplink, spec.downlink, spec.period),
+                    f"{self.name}.udp",
+                ).start(environment)
+            finally:
+                if claim is not None:  # the bridge holds the instance's ports now
+                    claim.close()
+            group.add("udp", bridge)
+            group.ports = bridge.participant.local_ports
+        return group
 
 
 @dataclasses.dataclass(frozen=True)
@@ -183,4 +245,4 @@ def run_real_sitl(
         if on_ready is not None:
             on_ready(instance, simulation.run_dir)
         log.info("real PX4 SITL (instance %d) running at %gx real time", instance, speed)
-        return _run(simulation, duration, stop)
+        return run_until(simulation, duration, stop)

@@ -440,6 +440,35 @@ def test_standalone_sitl_serves_px4s_usual_ports(
             assert run_dir.encode() not in cmdline.read_bytes(), f"{cmdline} outlived the SITL"
 
 
+@pytest.mark.xdist_group("px4-usual-ports")  # listens where PX4 SITL sends: 14540 + N
+def test_standalone_sitl_runs_a_fleet_of_real_px4(px4_sitl: RealPX4, sitl: Any) -> None:
+    """``--count 2 --px4-binary``: two real PX4 instances in one world, each heard on its
+    instance's usual port with its own MAV_SYS_ID, as PX4's multi-vehicle SITL has them."""
+    if px4_sitl.binary is None:
+        pytest.skip("the standalone SITL runs a PX4 binary as a process")
+    args = ("--count", "2", "--speed", "4", "--px4-binary", px4_sitl.binary)
+    with sitl(*args, timeout=180.0) as proc:
+        seen = proc.ready.string  # its output up to the ready line
+        found = re.findall(r"iris_\d: PX4 instance (\d+) \(MAV_SYS_ID (\d+)\)", seen)
+        assert len(found) == 2, seen
+        for instance, system_id in ((int(i), int(s)) for i, s in found):
+            assert system_id == instance + 1
+            link = mavutil.mavlink_connection(
+                f"udpin:127.0.0.1:{API_PORT + instance}", source_system=250
+            )
+            try:
+                heartbeat = link.wait_heartbeat(timeout=60)
+            finally:
+                link.close()
+            assert heartbeat is not None
+            assert (heartbeat.get_srcSystem(), heartbeat.autopilot) == (system_id, 12)
+        run_dir = re.search(r"logs: (\S+)\)", seen)
+        assert run_dir is not None
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(60) == 0
+    assert not Path(run_dir[1]).exists(), "the fleet's run directory outlived it"
+
+
 def test_paced_loss_timeouts_grow_with_the_speed_within_their_ranges() -> None:
     from multicosim.px4.autopilot.params import table
     from multicosim.px4.standalone import paced_params

@@ -64,7 +64,6 @@ class AutopilotSpec(msgspec.Struct, frozen=True, kw_only=True):
     telemetry_rate: float = 20.0
     streams: StreamProfile = "gcs"
     params: dict[str, float] = msgspec.field(default_factory=dict)
-    system_id: int = 1
     mag_declination: float = 0.0  # rad, the world's (PX4 looks it up in its field model)
 
     def __post_init__(self) -> None:
@@ -76,8 +75,6 @@ class AutopilotSpec(msgspec.Struct, frozen=True, kw_only=True):
             raise ConfigurationError("telemetry_rate", self.telemetry_rate, "1..100 Hz")
         if self.streams not in ("gcs", "onboard"):
             raise ConfigurationError("streams", self.streams, "'gcs' or 'onboard'")
-        if not 1 <= self.system_id <= 254:
-            raise ConfigurationError("system_id", self.system_id, "an integer in [1, 254]")
         Params(self.params)  # validates names and ranges
 
 
@@ -92,7 +89,9 @@ class Autopilot(Commander, Navigator, Failures, Commands, ParamServer, Missions,
         self.ctl = MultirotorController()
         self.velocity_vehicle = spec.airframe == "point_mass"
         self._d = dialect()
-        self.mav = new_link(spec.system_id, 1)
+        # PX4 reads its MAVLink system id from MAV_SYS_ID once, at boot.
+        self.system_id = int(self.params["MAV_SYS_ID"])
+        self.mav = new_link(self.system_id, 1)
         self._out = []
         self._out_msgs = []
         self._subs: list[tuple[Subscription[Any], bool]] = []

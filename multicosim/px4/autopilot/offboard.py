@@ -49,7 +49,7 @@ class Server(State):
     def _handle(self, m: Any) -> None:
         name = m.get_type()
         target = getattr(m, "target_system", None)
-        if target not in (None, 0, self.spec.system_id):
+        if target not in (None, 0, self.system_id):
             return
         handler = getattr(self, "_on_" + name.lower(), None)
         if handler is not None:

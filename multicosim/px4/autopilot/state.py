@@ -62,6 +62,7 @@ class State:
     spec: Any
     period: float
     params: Params
+    system_id: int  # MAVLink system id (MAV_SYS_ID at boot)
     est: Estimator
     ctl: MultirotorController
     velocity_vehicle: bool
