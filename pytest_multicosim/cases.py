@@ -21,6 +21,24 @@ One file is one test::
     time_limit: 500                # optional: simulated seconds the mission may take
     score: competition             # optional: also judge it as the UAV test competition does
 
+A case of several vehicles in one world names them under ``vehicles`` instead of one
+``plan``: each its plan, where it starts and its parameters; they fly at once, on one clock
+(the fleet fixtures, :mod:`pytest_multicosim.fleet`), and the requirements read the
+encounter's signals (``separation``, ``horizontal_separation``, ``vertical_separation``,
+``cpa_distance``, ``cpa_time``, ``well_clear``, and each pair's, ``separation_alpha_bravo``)::
+
+    # test_crossing.mcs.yaml
+    description: two quadrotors cross at right angles, 8 m apart in height
+    vehicles:
+      alpha: {plan: north.plan}
+      bravo: {plan: east.plan, start: {north: 40, east: -30}, params: {MPC_XY_CRUISE: 6}}
+    well_clear: NMAC               # the volume the encounter judges (default NMAC)
+    requirements:
+      - always (separation >= 5)
+
+A vehicle collision fails it (the pair, the time, the closing speed), as a vehicle's
+collision with an obstacle, an incomplete mission or a violated requirement do.
+
 A file is collected as a module whose one test (named after the file) is parametrized over
 the fidelity levels like any ``@pytest.mark.fidelity`` test, runs on the vehicle fixtures
 (``px4_simulator``, ``ardupilot_copter_simulator``: real PX4 where ``--mcs-px4-binary`` names
@@ -48,10 +66,12 @@ import pytest
 from multicosim.core.deps import require
 from multicosim.core.errors import ConfigurationError
 from multicosim.core.fidelity import FIDELITIES
+from multicosim.physics.encounter import check_volume
+from multicosim.physics.fleet import Pose, member_names
 from multicosim.physics.obstacles import Box, Cylinder
 from multicosim.physics.wind import Wind
 
-__all__ = ["SUFFIXES", "Case", "CaseError", "CaseFile", "is_case", "load_case"]
+__all__ = ["SUFFIXES", "Case", "CaseError", "CaseFile", "CaseVehicle", "is_case", "load_case"]
 
 SUFFIXES = (".mcs.yaml", ".mcs.yml", ".mcs.toml")
 """The names of files collected as cases (``test_`` first, as pytest's own test files)."""
@@ -59,10 +79,23 @@ SUFFIXES = (".mcs.yaml", ".mcs.yml", ".mcs.toml")
 Autopilot = Literal["px4", "ardupilot"]
 
 
-class Case(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
-    """One test as a file (see the module's docstring for the format)."""
+class CaseVehicle(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
+    """One vehicle of a case with several: its plan, where it starts (``north``, ``east``,
+    ``up`` m from home and ``yaw`` degrees, or ``lat``/``lon``) and its PX4 parameters (a
+    file or the values)."""
 
     plan: str
+    start: Pose = msgspec.field(default_factory=Pose)
+    params: str | dict[str, float] | None = None
+
+
+class Case(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
+    """One test as a file (see the module's docstring for the format): one vehicle's
+    ``plan``, or ``vehicles`` by name."""
+
+    plan: str = ""
+    vehicles: dict[str, CaseVehicle] = msgspec.field(default_factory=dict)
+    well_clear: str = "NMAC"
     autopilot: Autopilot = "px4"
     fidelity: tuple[str, ...] = ()
     params: str | dict[str, float] | None = None
@@ -102,11 +135,17 @@ def load_case(path: Path) -> Case:
         decode = msgspec.yaml.decode
     try:
         case = decode(path.read_bytes(), type=Case)
+    except ConfigurationError as exc:  # a start's own check (Pose), where msgspec built it
+        raise CaseError(path, "vehicles: start", str(exc)) from None
     except msgspec.ValidationError as exc:
         # msgspec says where (`$.obstacles[0].height`) and what it expected.
         raise CaseError(path, *_where(str(exc))) from None
     except msgspec.DecodeError as exc:
         raise CaseError(path, "(file)", f"not valid {path.suffix[1:].upper()}: {exc}") from None
+    if bool(case.plan) == bool(case.vehicles):
+        raise CaseError(path, "plan", "one vehicle's plan, or vehicles: by name (not both)")
+    if case.vehicles:
+        _check_fleet(path, case)
     for level in case.fidelity:
         if level not in FIDELITIES:
             allowed = ", ".join(FIDELITIES)
@@ -115,11 +154,32 @@ def load_case(path: Path) -> Case:
         raise CaseError(path, "fidelity", "ardupilot flies MuJoCo: medium or high, not 'low'")
     if case.time_limit is not None and not case.time_limit > 0:
         raise CaseError(path, "time_limit", f"{case.time_limit!r}: simulated seconds above 0")
-    for field in ("plan", "params"):
-        name = getattr(case, field)
-        if isinstance(name, str) and not (path.parent / name).is_file():
-            raise CaseError(path, field, f"{name!r} is no file (names are relative to the case)")
+    files: list[tuple[str, object]] = [("plan", case.plan), ("params", case.params)]
+    for member, vehicle in case.vehicles.items():
+        files += [
+            (f"vehicles.{member}.plan", vehicle.plan),
+            (f"vehicles.{member}.params", vehicle.params),
+        ]
+    for field, file in files:
+        if isinstance(file, str) and file and not (path.parent / file).is_file():
+            raise CaseError(path, field, f"{file!r} is no file (names are relative to the case)")
     return case
+
+
+def _check_fleet(path: Path, case: Case) -> None:
+    """What a case of several vehicles may say (CaseError naming the field)."""
+    try:
+        member_names(case.vehicles)
+        check_volume(case.well_clear)
+    except ConfigurationError as exc:
+        raise CaseError(path, exc.field, f"{exc.value!r}: {exc.allowed}") from None
+    if case.autopilot != "px4":
+        allowed = "'px4' with vehicles (the built-in autopilot, and real PX4 where named)"
+        raise CaseError(path, "autopilot", f"{case.autopilot!r}: {allowed}")
+    if case.params is not None:
+        raise CaseError(path, "params", "each vehicle's own, under vehicles, with vehicles")
+    if case.score:
+        raise CaseError(path, "score", f"{case.score!r}: the competition scores one vehicle")
 
 
 def is_case(path: Path) -> bool:
@@ -174,15 +234,9 @@ def _fly(case: Case, path: Path, simulation: Any, record: Record) -> None:
     config = Configuration.from_plan(path.parent / case.plan, **limit)
     result = simulation.firmware.send(config)
     soft = _judge(case, result, record) if case.score == "competition" else None
-    hit = result.collision
-    if hit is not None:
-        obstacle = case.obstacles[hit.obstacle]
+    if result.collision is not None:
         hard = "hard fail: " if case.score == "competition" else ""
-        pytest.fail(
-            f"{hard}the vehicle hit {_name(case, hit.obstacle)} "
-            f"({type(obstacle).__name__.lower()}) at t={hit.time:.2f} s, at {hit.speed:.1f} m/s",
-            pytrace=False,
-        )
+        pytest.fail(hard + _hit(case, result.collision), pytrace=False)
     if soft is not None:
         pytest.fail(soft, pytrace=False)
     assert result.completed, f"the mission did not complete: {result.reason}"
@@ -190,20 +244,96 @@ def _fly(case: Case, path: Path, simulation: Any, record: Record) -> None:
         Requirement(formula).check(result.trajectory)
 
 
+def _hit(case: Case, hit: Any, who: str = "the vehicle") -> str:
+    """What a collision with one of the case's obstacles says."""
+    obstacle = case.obstacles[hit.obstacle]
+    return (
+        f"{who} hit {_name(case, hit.obstacle)} ({type(obstacle).__name__.lower()}) "
+        f"at t={hit.time:.2f} s, at {hit.speed:.1f} m/s"
+    )
+
+
+def _fly_fleet(case: Case, path: Path, simulation: Any, record: Record) -> None:
+    """Fly every vehicle's plan at once on a started fleet and judge the flights."""
+    from multicosim.mavlink.mission import Configuration
+    from multicosim.search.requirements import Requirement
+
+    limit = {"time_limit": case.time_limit} if case.time_limit is not None else {}
+    missions = {
+        name: Configuration.from_plan(path.parent / vehicle.plan, **limit)
+        for name, vehicle in case.vehicles.items()
+    }
+    result = simulation.fly(missions)
+    encounter = result.encounter
+    record("mcs_min_separation", f"{encounter.min_separation():.3f}")
+    if encounter.collisions:
+        c = encounter.collisions[0]
+        pytest.fail(
+            f"{c.a} and {c.b} collided at t={c.time:.2f} s, closing at {c.speed:.1f} m/s",
+            pytrace=False,
+        )
+    for name, flown in result.results.items():
+        if flown.collision is not None:
+            pytest.fail(_hit(case, flown.collision, name), pytrace=False)
+    for name, flown in result.results.items():
+        assert flown.completed, f"{name}'s mission did not complete: {flown.reason}"
+    signals = encounter.signals()
+    for formula in case.requirements:
+        Requirement(formula).check(signals)
+
+
+def _fleet_fixtures(module: ModuleType, case: Case, path: Path) -> None:
+    """The fleet fixtures a case of several vehicles overrides: its vehicles (real PX4 where
+    the run names one), its world, its well-clear volume."""
+
+    @pytest.fixture
+    def fleet_vehicles(px4_autopilot: str, request: pytest.FixtureRequest) -> dict[str, Any]:
+        from multicosim.fleet import PX4Vehicle
+
+        from .px4 import real_px4
+
+        firmware = real_px4(request.config).sitl() if px4_autopilot == "sitl" else None
+        return {
+            name: PX4Vehicle(
+                start=vehicle.start, params=_params_of(path, vehicle.params), firmware=firmware
+            )
+            for name, vehicle in case.vehicles.items()
+        }
+
+    @pytest.fixture
+    def fleet_world(mcs_fidelity: str) -> Any:
+        from multicosim.px4.scenario import default_world
+
+        world = default_world(mcs_fidelity)  # type: ignore[arg-type]  # checked by the plugin
+        return dataclasses.replace(world, obstacles=case.obstacles, wind=case.wind)
+
+    @pytest.fixture
+    def fleet_well_clear() -> str:
+        return case.well_clear
+
+    module.fleet_vehicles = fleet_vehicles  # type: ignore[attr-defined]
+    module.fleet_world = fleet_world  # type: ignore[attr-defined]
+    module.fleet_well_clear = fleet_well_clear  # type: ignore[attr-defined]
+
+
 def _module(path: Path, case: Case) -> ModuleType:
     """A module of one test, named after the file, and the fixtures that set its world up."""
     module = ModuleType(path.name)
     module.__file__ = str(path)
     name = "test_" + path.name.removeprefix("test_").split(".", 1)[0].replace("-", "_")
-    params: Callable[[], dict[str, float]] = dict
-    if isinstance(case.params, dict):
-        params = functools.partial(dict, case.params)
-    elif case.params:
-        params = functools.partial(_params, path.parent / case.params)
+    params = functools.partial(_params_of, path, case.params)
 
-    if case.autopilot == "px4":
+    if case.vehicles:
 
-        def test(px4_simulation: Any, request: pytest.FixtureRequest) -> None:
+        def test(fleet_simulation: Any, request: pytest.FixtureRequest) -> None:
+            _fly_fleet(case, path, fleet_simulation, _recorder(request))
+
+        _fleet_fixtures(module, case, path)
+    elif case.autopilot == "px4":
+
+        def test(  # type: ignore[misc]  # one test, its fixtures by the case's kind
+            px4_simulation: Any, request: pytest.FixtureRequest
+        ) -> None:
             _fly(case, path, px4_simulation, _recorder(request))
 
         @pytest.fixture
@@ -221,7 +351,7 @@ def _module(path: Path, case: Case) -> ModuleType:
         module.px4_params = px4_params  # type: ignore[attr-defined]
     else:
 
-        def test(  # type: ignore[misc]
+        def test(  # type: ignore[misc]  # one test, its fixtures by the case's kind
             ardupilot_copter_simulation: Any, request: pytest.FixtureRequest
         ) -> None:
             _fly(case, path, ardupilot_copter_simulation, _recorder(request))
@@ -247,10 +377,13 @@ def _module(path: Path, case: Case) -> ModuleType:
     return module
 
 
-def _params(path: Path) -> dict[str, float]:
+def _params_of(path: Path, params: str | dict[str, float] | None) -> dict[str, float]:
+    """A case's PX4 parameters: the values, or read from a file beside the case."""
     from multicosim.mavlink.params import read_params
 
-    return read_params(path)
+    if isinstance(params, dict):
+        return dict(params)
+    return read_params(path.parent / params) if params else {}
 
 
 class CaseFile(pytest.Module):

@@ -87,7 +87,7 @@ def real_px4(config: pytest.Config) -> RealPX4:
 
 def pytest_generate_tests(metafunc: pytest.Metafunc) -> None:
     # With real PX4 configured, each test on the PX4 fixtures runs on both autopilots.
-    if "px4_simulator" not in metafunc.fixturenames:
+    if "px4_autopilot" not in metafunc.fixturenames:
         return
     if not real_px4(metafunc.config).configured:
         return

@@ -218,17 +218,25 @@ def test_uav_listings_pass(pytester: pytest.Pytester) -> None:
     # The Python test and the file of the same test, both run from the project's root.
     pytester.makepyfile(test_corridor=_block("def test_the_corridor_keeps_clear_of_the_mast"))
     page = (ROOT / "docs" / "tutorials" / "uav-test.md").read_text()
-    # The case file written out (the competition's example is included from its file).
+    # The case files written out (the competition's example is included from its file).
     blocks = re.findall(r"```yaml\n(.*?)```", page, flags=re.DOTALL)
-    (case,) = [block for block in blocks if not block.startswith("--8<--")]
-    name = case.splitlines()[0].removeprefix("# ")
-    assert (ROOT / name).read_text() == case, f"the page shows {name} as it is"
+    cases = [block for block in blocks if not block.startswith("--8<--")]
+    assert len(cases) == 2, "one vehicle's case and a case of several"
+    for case in cases:
+        name = case.splitlines()[0].removeprefix("# ")
+        assert (ROOT / name).read_text() == case, f"the page shows {name} as it is"
     (pytester.path / "scenarios" / "uav").mkdir(parents=True)
-    for plan in ("corridor.plan", "test_mast_beside_leg.mcs.yaml"):
-        source = ROOT / "scenarios" / "uav" / plan
-        (pytester.path / "scenarios" / "uav" / plan).write_text(source.read_text())
+    for name in (
+        "corridor.plan",
+        "test_mast_beside_leg.mcs.yaml",
+        "crossing-north.plan",
+        "crossing-east.plan",
+        "test_crossing_pair.mcs.yaml",
+    ):
+        source = ROOT / "scenarios" / "uav" / name
+        (pytester.path / "scenarios" / "uav" / name).write_text(source.read_text())
     result = pytester.runpytest("--mcs-fidelity=low", "-p", "no:randomly")
-    result.assert_outcomes(passed=2)
+    result.assert_outcomes(passed=3)
 
 
 def test_failing_listing_reports_as_shown(pytester: pytest.Pytester) -> None:
