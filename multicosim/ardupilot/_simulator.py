@@ -149,6 +149,11 @@ class ArduPilotNode(MissionNode):
         """ArduPilot's program and its bridge."""
         return self.autopilot_node
 
+    def flight_logs(self, into: Path) -> list[Path]:
+        """ArduPilot's DataFlash logs so far (``logs/*.BIN``; from a container, copied into
+        ``into`` first)."""
+        return self.autopilot_node.flight_logs(into)
+
     def check(self, msg: Configuration) -> None:
         """Raise ConfigurationError if ``msg`` cannot be flown (or driven)."""
         super().check(msg)
@@ -249,6 +254,31 @@ class ArduPilotComponent:
             dialect="ardupilotmega",
         )
 
+    def trace_options(self, *, member: bool = False, start: Home | None = None) -> TraceOptions:
+        """Its trace options: the MAVLink link decoded, the world's truth and ArduPilot's
+        outputs typed, Foxglove channels (``member``, ``start``: as a fleet's vehicle, see
+        :func:`~multicosim.mavlink.trace.mission_trace`)."""
+        import dataclasses
+
+        from ..mavlink.trace import mission_trace
+        from ._bridge import ServoOutputs
+
+        (uplink, downlink), (truth, servos) = self.links, self.topics
+        options = mission_trace(
+            vehicle=self.name,
+            uplink=uplink,
+            downlink=downlink,
+            truth=truth,
+            home=self.world.home,
+            obstacles=self.world.obstacles,
+            types={servos: ServoOutputs},
+            dialect_name="ardupilotmega",
+            member=member,
+            start=start,
+        )
+        # ArduPilot runs its own threads: its runs repeat their verdicts, not their bits.
+        return dataclasses.replace(options, deterministic=False)
+
     def start(self, environment: LocalEnvironment) -> ArduPilotNode:
         """Start ArduPilot and its bridge, then the ground station."""
         name = self.name
@@ -328,28 +358,12 @@ class ArduPilotSimulation(ScenarioSimulation):
     def trace_options(self) -> TraceOptions:
         """What a recorder of this simulation should know: the MAVLink link decoded, the
         world's truth and ArduPilot's outputs typed, Foxglove channels."""
-        from ..mavlink.trace import mission_trace
-        from ._bridge import ServoOutputs
-
-        component = self.firmware.component
-        (uplink, downlink), (truth, servos) = component.links, component.topics
-        options = mission_trace(
-            vehicle=self.firmware.name,
-            uplink=uplink,
-            downlink=downlink,
-            truth=truth,
-            home=component.world.home,
-            obstacles=component.world.obstacles,
-            types={servos: ServoOutputs},
-            dialect_name="ardupilotmega",
-        )
-        # ArduPilot runs its own threads: its runs repeat their verdicts, not their bits.
-        return dataclasses.replace(options, deterministic=False)
+        return self.firmware.component.trace_options()
 
     def flight_logs(self) -> list[Path]:
         """ArduPilot's DataFlash logs so far (``logs/*.BIN``; MAVExplorer and UAV Log Viewer
         read them). From a container they are copied into the run directory first."""
-        return self.firmware.firmware_nodes.flight_logs(self.run_dir / "ardupilot-logs")
+        return self.firmware.flight_logs(self.run_dir / "ardupilot-logs")
 
 
 class _ArduPilotSimulator(Scenario[ArduPilotSimulation]):

@@ -1,7 +1,8 @@
 """The encounter monitor: a participant beside the vehicles that measures every pair.
 
 It reads each vehicle's ground truth (:class:`~multicosim.mavlink.hil.Truth`) every period,
-takes a :class:`~multicosim.physics.encounter.PairSample` of every pair, and records
+takes a :class:`~multicosim.physics.encounter.PairSample` of every pair (published on
+``mcs/encounter/<a>/<b>``, for traces), and records
 collisions: from MuJoCo's contacts where the world reports them (two quadrotors at medium and
 high fidelity), else analytically, when two bodies' spheres come to touch between two samples
 at the velocities they had (low fidelity, where each vehicle flies a world of its own; a
@@ -24,12 +25,13 @@ from ..physics.encounter import (
     first_contact,
     pair_sample,
 )
+from ..trace import ENCOUNTER_CHANNEL
 from .results import Encounter, VehicleCollision, closest, losses, pair_name, pairs_of
 
 if TYPE_CHECKING:
     from ..runtime.context import StepContext, Subscription
 
-__all__ = ["EncounterMonitor"]
+__all__ = ["EncounterMonitor", "pair_topic"]
 
 
 class EncounterMonitor:
@@ -108,7 +110,9 @@ class EncounterMonitor:
                 continue
             reach = self.radii.get(a, 0.0) + self.radii.get(b, 0.0)
             name = pair_name(a, b)
-            self.samples[name].append(pair_sample(time, sa, sb, reach, self.volume))
+            sample = pair_sample(time, sa, sb, reach, self.volume)
+            self.samples[name].append(sample)
+            ctx.publish(pair_topic(a, b), sample)  # for traces and their plots
             self.midpoints[name][time] = (
                 (sa.north + sb.north) / 2,
                 (sa.east + sb.east) / 2,
@@ -148,6 +152,11 @@ class EncounterMonitor:
             losses={n: losses(s) for n, s in self.samples.items()},
             collisions=list(self.collisions),
         )
+
+
+def pair_topic(a: str, b: str) -> str:
+    """Where the monitor publishes the samples of vehicles ``a`` and ``b``."""
+    return f"{ENCOUNTER_CHANNEL}/{a}/{b}"
 
 
 def _closing(a: Kinematics, b: Kinematics) -> float:

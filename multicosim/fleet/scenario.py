@@ -19,7 +19,9 @@ them; the world then runs in this process beside their bridges.
 from __future__ import annotations
 
 import dataclasses
+import shutil
 from collections.abc import Mapping
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
 import msgspec
@@ -29,14 +31,15 @@ from ..ardupilot import ArduPilotComponent, boot, frame_period
 from ..ardupilot import default_world as ardupilot_world
 from ..core.errors import ConfigurationError
 from ..core.fidelity import Fidelity, check_fidelity
+from ..core.geo import Home, LocalProjection
 from ..core.interfaces import Node, NodeId
 from ..local import InProcessComponent, InProcessFirmwareComponent, InProcessNode
 from ..mavlink.flights import fly_together
 from ..mavlink.gcs import GcsSpec, GroundStation, Procedure
 from ..mavlink.mission import Configuration, MissionResult
 from ..physics.config import WorldConfig
-from ..physics.encounter import NMAC, WellClear, check_volume
-from ..physics.fleet import Pose, member_names
+from ..physics.encounter import NMAC, PairSample, WellClear, check_volume
+from ..physics.fleet import Pose, member_names, resolve_pose
 from ..placement import ParticipantProgram, Placement, Scenario, ScenarioSimulation, resolve
 from ..px4.procedure import PX4Procedure
 from ..px4.scenario import LOW_PERIOD, PX4Component, default_world, sitl_period
@@ -47,8 +50,8 @@ from ..quadrotor.airframe import NONE_IRIS
 from ..quadrotor.topics import SENSORS
 from ..rover import REACH as ROVER_REACH
 from ..runtime.serve import Firmware
-from .monitor import EncounterMonitor
-from .results import FleetMissions, FleetResult
+from .monitor import EncounterMonitor, pair_topic
+from .results import FleetMissions, FleetResult, pairs_of
 from .world import Body, FleetWorldSpec
 
 if TYPE_CHECKING:
@@ -155,10 +158,10 @@ class FleetSimulation(ScenarioSimulation):
         gcs: NodeId[Any],
         monitor: NodeId[InProcessNode[EncounterMonitor]],
         own_links: frozenset[str] = frozenset(),
-        deterministic: bool = True,
+        options: TraceOptions | None = None,
     ) -> None:
         super().__init__(simulation)
-        self._deterministic = deterministic
+        self._options = options
         self.vehicles: dict[str, Any] = {n: simulation.get(i) for n, i in vehicles.items()}
         self._flown = sorted(set(vehicles) - own_links)
         self._gcs = simulation.get(gcs)
@@ -186,10 +189,27 @@ class FleetSimulation(ScenarioSimulation):
         return self._monitor.encounter()
 
     def trace_options(self) -> TraceOptions:
-        """Whether its runs repeat bit for bit (not with real firmware, on its own threads)."""
+        """Every vehicle's channels under its name, its paths and plan for the plot, the
+        pairs' samples; whether its runs repeat bit for bit (not with real firmware)."""
         from ..trace import TraceOptions
 
-        return TraceOptions(deterministic=self._deterministic)
+        return self._options or TraceOptions()
+
+    def flight_logs(self) -> list[Path]:
+        """Each real firmware's flight logs so far (PX4's ULog, ArduPilot's DataFlash), named
+        after its vehicle (``alpha-12_00_01.ulg``), in the run directory."""
+        out: list[Path] = []
+        for name, node in self.vehicles.items():
+            logs = getattr(node, "flight_logs", None)  # real firmware flown by the fleet's
+            if logs is None:
+                continue
+            into = self.run_dir / f"{name}-logs"
+            for path in logs(into):
+                target = self.run_dir / "flight-logs" / f"{name}-{path.name}"
+                target.parent.mkdir(exist_ok=True)
+                shutil.copyfile(path, target)
+                out.append(target)
+        return out
 
 
 class Fleet(Scenario[FleetSimulation]):
@@ -315,6 +335,24 @@ class Fleet(Scenario[FleetSimulation]):
             InProcessFirmwareComponent(fleet_ground_station(flown, gcs_period), name="fleet.gcs")
         )
         self._arducopters = arducopters
+        self._options = self._trace_options()
+
+    def _trace_options(self) -> TraceOptions:
+        """Each vehicle's channels under its name, from its start; the pairs' samples."""
+        from ..trace import TraceOptions, merge_options
+
+        home = self.world.home
+        projection = LocalProjection.at(home)
+        options = []
+        for name, component in self.components.items():
+            north, east, up, _ = resolve_pose(self.vehicles[name].start, home)
+            lat, lon = projection.reproject(north, east)
+            start = Home(lat, lon, home.alt + up)
+            options.append(component.trace_options(member=True, start=start))
+        names = list(self.vehicles)
+        pairs = {pair_topic(a, b): PairSample for a, b in pairs_of(names)}
+        options.append(TraceOptions(types=pairs, deterministic=not self.real))
+        return merge_options(options)
 
     def _base_world(self, world: WorldConfig | None, real: bool) -> WorldConfig:
         """The fleet's world: ``world`` or the fidelity's, at ArduPilot's physics frame with
@@ -365,12 +403,21 @@ class Fleet(Scenario[FleetSimulation]):
                 params=dict(vehicle.params),
                 placement=vehicle.placement,  # ArduPilot's own default: a local process
             )
+        # Each built-in autopilot its own system id (the fleet's position of the vehicle, as
+        # PX4's instance number gives real PX4 its own) so that a .tlog tells them apart; with
+        # its own links, the instance it claims says.
+        system_id = (
+            {"MAV_SYS_ID": float(list(self.vehicles).index(name) + 1)}
+            if vehicle.firmware is None and not vehicle.own_links
+            else {}
+        )
         return PX4Component(
             self._world_of(name),
             self.fidelity,
             name=name,
             # Wall-clock clients of a paced PX4 get its paced loss timeouts; a user's win.
             params={
+                **system_id,
                 **(paced_params(realtime or 1.0) if vehicle.own_links else {}),
                 **vehicle.params,
             },
@@ -405,7 +452,7 @@ class Fleet(Scenario[FleetSimulation]):
             frozenset(
                 n for n, v in self.vehicles.items() if isinstance(v, PX4Vehicle) and v.own_links
             ),
-            deterministic=not self.real,
+            self._options,
         )
         try:
             for name in self._arducopters:
@@ -430,8 +477,6 @@ def _reach(vehicle: Member) -> float:
 def _check_starts(starts: Mapping[str, tuple[Pose, float]], world: WorldConfig | None) -> None:
     """Two vehicles that would start overlapping (the spheres that enclose them) are refused."""
     home = (world or WorldConfig()).home
-    from ..physics.fleet import resolve_pose
-
     placed = {n: (resolve_pose(p, home)[:3], r) for n, (p, r) in starts.items()}
     names = list(placed)
     for i, a in enumerate(names):

@@ -65,7 +65,8 @@ __all__ = ["Channels", "mavlink_message", "mavlink_schema", "mission_trace"]
 
 
 class Channels(NamedTuple):
-    """A vehicle's Foxglove channels (see the module)."""
+    """A vehicle's Foxglove channels (see the module); ``paths`` and ``plan`` are where its
+    paths and plan for the plot go (under its name too, for a vehicle of a fleet)."""
 
     vehicle: str
     log: str
@@ -73,10 +74,12 @@ class Channels(NamedTuple):
     estimate: str
     truth: str
     mission: str
+    paths: str = PATH_CHANNEL
+    plan: str = PLAN_CHANNEL
 
     @classmethod
-    def of(cls, vehicle: str) -> Channels:
-        """The channels under ``vehicle``'s name."""
+    def of(cls, vehicle: str, *, member: bool = False) -> Channels:
+        """The channels under ``vehicle``'s name (``member``: of a fleet, the plot's too)."""
         return cls(
             vehicle,
             f"{vehicle}/log",
@@ -84,6 +87,8 @@ class Channels(NamedTuple):
             f"{vehicle}/location/estimate",
             f"{vehicle}/location/truth",
             f"{vehicle}/mission",
+            f"{PATH_CHANNEL}/{vehicle}" if member else PATH_CHANNEL,
+            f"{PLAN_CHANNEL}/{vehicle}" if member else PLAN_CHANNEL,
         )
 
 
@@ -182,6 +187,7 @@ class _Links:
         home: Home,
         channels: Channels,
         dialect_name: str = "common",
+        start: Home | None = None,
     ) -> None:
         self.topics = topics
         self._channels = channels
@@ -189,8 +195,11 @@ class _Links:
         self._uplink = uplink
         self._downlink = downlink
         self._parsers: dict[str, Any] = {}
-        self._home = home
+        self._home = start or home  # the vehicle's own, where it started
         self._projection = LocalProjection(home.lat, home.lon)
+        # Where the vehicle's local frame (its start) is in the world's: east, north, up.
+        north, east = self._projection.project(self._home.lat, self._home.lon)
+        self._origin = (east, north, self._home.alt - home.alt)
         self._local: Any = None
         self._quaternions = False
         self._items: dict[int, Any] = {}
@@ -244,14 +253,19 @@ class _Links:
                 self._channels.estimate, LOCATION_FIX, fix_message(time_ns, lat, lon, m.alt * 1e-3)
             )
             north, east = self._projection.project(lat, lon)
-            point = {"east": east, "north": north, "up": m.relative_alt * 1e-3}
-            yield Converted(f"{PATH_CHANNEL}/estimate", PATH_POINT, point)
+            up = m.relative_alt * 1e-3 + self._origin[2]
+            yield Converted(
+                f"{self._channels.paths}/estimate",
+                PATH_POINT,
+                {"east": east, "north": north, "up": up},
+            )
 
     def _pose(self, time_ns: int, q_ned_frd: tuple[float, ...]) -> Iterator[Converted]:
         local = self._local
         if local is None or not all(math.isfinite(v) for v in q_ned_frd):
             return
-        position = (local.y, local.x, -local.z)  # NED -> ENU
+        e, n, u = self._origin
+        position = (local.y + e, local.x + n, -local.z + u)  # NED -> ENU, from the world's home
         yield Converted(
             self._channels.pose,
             POSE_IN_FRAME,
@@ -269,7 +283,8 @@ class _Links:
     def _mission(self, time_ns: int) -> Iterator[Converted]:
         """The mission uploaded so far: takeoff, waypoints, then land or return."""
         home = self._home
-        points: list[tuple[float, float, float]] = [(0.0, 0.0, 0.0)]  # east, north, up
+        origin = self._origin
+        points: list[tuple[float, float, float]] = [origin]  # east, north, up
         coordinates = [[home.lon, home.lat]]
         features: list[dict[str, Any]] = []
         alt = 0.0
@@ -287,10 +302,10 @@ class _Links:
                 lat, lon = item.x * 1e-7, item.y * 1e-7
             alt = float(item.z) if int(item.command) != 21 else 0.0
             if int(item.command) == 20:
-                points.append((0.0, 0.0, points[-1][2]))
+                points.append((origin[0], origin[1], points[-1][2]))
                 alt = 0.0
             north, east = self._projection.project(lat, lon)
-            points.append((east, north, alt))
+            points.append((east, north, alt + origin[2]))
             coordinates.append([lon, lat])
             features.append(
                 {
@@ -307,7 +322,7 @@ class _Links:
         collection = {"type": "FeatureCollection", "features": [line, *features]}
         yield Converted(self._channels.mission, GEOJSON, {"geojson": json.dumps(collection)})
         plan = [{"east": e, "north": n, "up": u} for e, n, u in points]
-        yield Converted(PLAN_CHANNEL, PLAN, {"points": plan})
+        yield Converted(self._channels.plan, PLAN, {"points": plan})
 
 
 def _obstacle_entity(time_ns: int, p: Placed) -> dict[str, Any]:
@@ -340,9 +355,12 @@ class _Truth:
     """The world's truth as a LocationFix track and a path in metres from home; with its
     first message, the world's obstacles (for the plot and as a 3-D scene)."""
 
-    def __init__(self, topic: str, home: Home, obstacles: Sequence[Obstacle], channel: str) -> None:
+    def __init__(
+        self, topic: str, home: Home, obstacles: Sequence[Obstacle], channels: Channels
+    ) -> None:
         self.topics = (topic,)
-        self._channel = channel
+        self._channel = channels.truth
+        self._path = f"{channels.paths}/truth"
         self._home_alt = home.alt
         self._obstacles = placed(obstacles, home)
 
@@ -373,7 +391,7 @@ class _Truth:
                 fix_message(time_ns, m["lat"], m["lon"], self._home_alt + m["alt"]),
             ),
             Converted(
-                f"{PATH_CHANNEL}/truth",
+                self._path,
                 PATH_POINT,
                 {"east": m["east"], "north": m["north"], "up": m["alt"]},
             ),
@@ -391,6 +409,8 @@ def mission_trace(
     links: tuple[str, ...] | None = None,
     dialect_name: str = "common",
     obstacles: Sequence[Obstacle] = (),
+    member: bool = False,
+    start: Home | None = None,
 ) -> TraceOptions:
     """Trace options of a ground station's MAVLink link and the world's truth (any autopilot).
 
@@ -398,33 +418,36 @@ def mission_trace(
     topics decoded into channels (default: the uplink and the downlink); ``types`` the other
     topics' message types; ``obstacles`` the world's (their footprints go to
     ``mcs/obstacles``, for the plot, their solids to ``mcs/scene``, for the 3D panel).
+    A ``member`` of a fleet has its paths and plan under its name (``mcs/path/alpha/truth``)
+    and starts at ``start`` (None: ``home``, the world's origin).
     """
     links = links or (uplink, downlink)
-    channels = Channels.of(vehicle)
+    channels = Channels.of(vehicle, member=member)
     types = {**types, truth: Truth, uplink: MavlinkPacket, downlink: MavlinkPacket}
     target = f"{downlink}/POSITION_TARGET_LOCAL_NED"
     local = f"{downlink}/LOCAL_POSITION_NED"
+    whose = f"{vehicle}: " if member else ""
     plots = [
         (
-            f"{axis}: setpoint vs estimate (local NED, m)",
+            f"{whose}{axis}: setpoint vs estimate (local NED, m)",
             [message_path(target, field), message_path(local, field)],
         )
         for axis, field in (("north", "x"), ("east", "y"), ("down", "z"))
     ]
     plots.append(
         (
-            "height above home: estimate vs truth (m)",
+            f"{whose}height above home: estimate vs truth (m)",
             [
-                message_path(f"{PATH_CHANNEL}/estimate", "up"),
-                message_path(f"{PATH_CHANNEL}/truth", "up"),
+                message_path(f"{channels.paths}/estimate", "up"),
+                message_path(f"{channels.paths}/truth", "up"),
             ],
         )
     )
     return TraceOptions(
         types=types,
         converters=[
-            _Links(links, uplink, downlink, home, channels, dialect_name),
-            _Truth(truth, home, obstacles, channels.truth),
+            _Links(links, uplink, downlink, home, channels, dialect_name, start),
+            _Truth(truth, home, obstacles, channels),
         ],
         replaced=links,
         tlog=(uplink, downlink),

@@ -300,6 +300,15 @@ class PX4Component:
             return self._start_sitl(environment, spec)
         return self._with_ground_station(environment, self.autopilot().start(environment))
 
+    def trace_options(self, *, member: bool = False, start: Home | None = None) -> TraceOptions:
+        """Its trace options: types, decoders, Foxglove channels (``member``, ``start``: as a
+        fleet's vehicle, see :func:`~multicosim.mavlink.trace.mission_trace`)."""
+        from .trace import trace_options
+
+        options = trace_options(self.spec, self.world, self.name, member=member, start=start)
+        # Real PX4 runs its own threads: its runs repeat their verdicts, not their bits.
+        return dataclasses.replace(options, deterministic=self.firmware is None)
+
     def gcs_spec(self) -> GcsSpec:
         """What a ground station flying this autopilot needs: its link, the world's truth,
         the telemetry period, and real PX4's longer waits."""
@@ -364,12 +373,7 @@ class PX4Simulation(ScenarioSimulation):
 
     def trace_options(self) -> TraceOptions:
         """What a recorder of this simulation should know (types, decoders, Foxglove channels)."""
-        from .trace import trace_options
-
-        component = self.firmware.component
-        options = trace_options(component.spec, component.world, component.name)
-        # Real PX4 runs its own threads: its runs repeat their verdicts, not their bits.
-        return dataclasses.replace(options, deterministic=component.firmware is None)
+        return self.firmware.component.trace_options()
 
     def flight_logs(self) -> list[Path]:
         """Real PX4's ULog files so far (``log/**/*.ulg``; Flight Review reads them).

@@ -14,15 +14,24 @@ from ..trace import (
 )
 
 if TYPE_CHECKING:
+    from ..core.geo import Home
     from ..physics.config import WorldConfig
     from .autopilot.firmware import AutopilotSpec
 
 __all__ = ["trace_options"]
 
 
-def trace_options(spec: AutopilotSpec, world: WorldConfig, name: str = "px4") -> TraceOptions:
+def trace_options(
+    spec: AutopilotSpec,
+    world: WorldConfig,
+    name: str = "px4",
+    *,
+    member: bool = False,
+    start: Home | None = None,
+) -> TraceOptions:
     """Types, decoders and Foxglove channels of a PX4 simulation (see the module docstring);
-    ``name`` is the vehicle's, which its channels are under."""
+    ``name`` is the vehicle's, which its channels are under (``member``, ``start``: as a
+    fleet's vehicle, see :func:`~multicosim.mavlink.trace.mission_trace`)."""
     topics = world_topics(world)
     mavlink_wire = spec.wire == "mavlink"
     hil = {
@@ -48,4 +57,6 @@ def trace_options(spec: AutopilotSpec, world: WorldConfig, name: str = "px4") ->
         obstacles=world.obstacles,
         types=types,
         links=(spec.uplink, spec.downlink, *(sorted(hil) if mavlink_wire else ())),
+        member=member,
+        start=start,
     )

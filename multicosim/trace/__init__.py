@@ -36,6 +36,7 @@ from ..core.clock import find_scheduler
 from ._cli import plot_command
 from ._convert import (
     ATTACK_CHANNEL,
+    ENCOUNTER_CHANNEL,
     LOCATION_CHANNEL,
     OBSTACLES_CHANNEL,
     PATH_CHANNEL,
@@ -50,6 +51,7 @@ from ._convert import (
     fix_message,
     local_path,
     location_fix,
+    merge_options,
     pose,
     pose_in_frame,
     pose_message,
@@ -84,6 +86,7 @@ from ._tlog import write_tlog
 __all__ = [
     "ATTACK_CHANNEL",
     "DIALECT",
+    "ENCOUNTER_CHANNEL",
     "GEOJSON",
     "LOCATION_CHANNEL",
     "LOCATION_FIX",
@@ -122,6 +125,7 @@ __all__ = [
     "layout",
     "local_path",
     "location_fix",
+    "merge_options",
     "message_path",
     "note_evaluation",
     "object_schema",

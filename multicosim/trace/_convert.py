@@ -42,6 +42,8 @@ SCENE_CHANNEL = "mcs/scene"  # 3-D entities (the obstacles) for the 3D panel
 ROBUSTNESS_CHANNEL = "mcs/robustness"
 # An attack's window: {"sensor", "model", "start", "end"} (s; end None: to the end of the run).
 ATTACK_CHANNEL = "mcs/attack"
+# mcs/encounter/<a>/<b>: a pair of a fleet's vehicles each sample (their separation, ...)
+ENCOUNTER_CHANNEL = "mcs/encounter"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -256,17 +258,25 @@ def trace_options(simulation: object) -> TraceOptions:
         return own or TraceOptions()
     if own is not None:
         found.append(own)
+    return merge_options(found, plan=own.plan if own is not None else ())
+
+
+def merge_options(
+    options: Sequence[TraceOptions], plan: Sequence[Sequence[float]] = ()
+) -> TraceOptions:
+    """One set of trace options from several (a fleet's vehicles', a simulation's nodes'):
+    every type (the last given wins), converter, plot and log; deterministic where all are."""
     types: dict[str, Any] = {}
-    for options in found:
-        types.update(options.types)
+    for o in options:
+        types.update(o.types)
     return TraceOptions(
         types=types,
-        converters=[c for o in found for c in o.converters],
-        plan=own.plan if own is not None else (),
-        replaced=[t for o in found for t in o.replaced],
-        tlog=[t for o in found for t in o.tlog],
-        plots=[p for o in found for p in o.plots],
-        deterministic=all(o.deterministic for o in found),
+        converters=[c for o in options for c in o.converters],
+        plan=plan,
+        replaced=[t for o in options for t in o.replaced],
+        tlog=[t for o in options for t in o.tlog],
+        plots=[p for o in options for p in o.plots],
+        deterministic=all(o.deterministic for o in options),
     )
 
 

@@ -2,7 +2,9 @@
 
 The path panel draws east to the right and north up, from the ``mcs/path/*`` channels
 scenarios derive (each labelled by what it is: ``truth``, ``estimate``, ...) and the plan
-(``mcs/plan``). The signal panel plots the signals the requirement reads; the robustness
+(``mcs/plan``); a fleet's, each vehicle's in a colour of its own (``mcs/path/<vehicle>/*``,
+``mcs/plan/<vehicle>``), with each pair's closest approach (``mcs/encounter/<a>/<b>``)
+marked between the two. The signal panel plots the signals the requirement reads; the robustness
 panel the deciding predicate's margin. Both mark the first violation and the worst time,
 and shade the window of each attack an injector ran (``mcs/attack``).
 """
@@ -19,6 +21,7 @@ from ..core.errors import TraceError
 from ..core.files import replacing
 from ._convert import (
     ATTACK_CHANNEL,
+    ENCOUNTER_CHANNEL,
     OBSTACLES_CHANNEL,
     PATH_CHANNEL,
     PLAN_CHANNEL,
@@ -39,12 +42,75 @@ _STYLES = {
     "estimate": ("tab:blue", "-"),
     "sensed": ("tab:blue", "-"),
 }
+# A fleet's vehicles, one colour each (truth and estimate alike), in the order first drawn.
+_FLEET_COLORS = ("tab:blue", "tab:green", "tab:purple", "tab:olive", "tab:cyan", "tab:pink")
 _DESCRIPTIONS = {
     "truth": "truth (the world's position)",
     "measured": "measured (the world's position sensor)",
     "estimate": "estimate (what the vehicle believed)",
     "sensed": "sensed (what the controller read)",
 }
+
+
+def _vehicles(paths: Sequence[str]) -> list[str]:
+    """The fleet's vehicles whose paths are drawn (``mcs/path/<vehicle>/<kind>``), in order."""
+    found: list[str] = []
+    for topic in paths:
+        label = topic.removeprefix(PATH_CHANNEL + "/")
+        vehicle = label.rpartition("/")[0]
+        if vehicle and vehicle not in found:
+            found.append(vehicle)
+    return found
+
+
+def _vehicle_color(vehicle: str, vehicles: Sequence[str]) -> str:
+    return (
+        _FLEET_COLORS[vehicles.index(vehicle) % len(_FLEET_COLORS)]
+        if vehicle in vehicles
+        else "tab:gray"
+    )
+
+
+def _path_style(label: str, vehicles: Sequence[str]) -> tuple[str | None, str, str]:
+    """A path's colour, line style and legend: one vehicle's by what it is; a fleet's by the
+    vehicle (its colour) and what it is (truth solid, estimate dashed)."""
+    vehicle, _, kind = label.rpartition("/")
+    if not vehicle:
+        color, style = _STYLES.get(label, (None, "-"))
+        return color, style, _DESCRIPTIONS.get(label, label)
+    style = "--" if kind in ("estimate", "sensed") else "-"
+    return _vehicle_color(vehicle, vehicles), style, f"{vehicle}: {kind}"
+
+
+def _approaches(ax: Axes, data: TraceData) -> None:
+    """Mark each pair's closest approach (``mcs/encounter/<a>/<b>``): a line between the two
+    vehicles' true positions then, labelled with the separation and the time."""
+    for topic in sorted(t for t in data.channels if t.startswith(ENCOUNTER_CHANNEL + "/")):
+        a, _, b = topic.removeprefix(ENCOUNTER_CHANNEL + "/").partition("/")
+        samples = _columns(data.topic(topic), "separation")
+        if not samples["time"]:
+            continue
+        k = min(range(len(samples["time"])), key=lambda i: samples["separation"][i])
+        when, separation = samples["time"][k], samples["separation"][k]
+        ends = []
+        for vehicle in (a, b):
+            cols = _columns(data.topic(f"{PATH_CHANNEL}/{vehicle}/truth"), "east", "north")
+            if not cols["time"]:
+                break
+            i = min(range(len(cols["time"])), key=lambda j: abs(cols["time"][j] - when))
+            ends.append((cols["east"][i], cols["north"][i]))
+        if len(ends) != 2:
+            continue
+        (line,) = ax.plot(
+            [e for e, _ in ends],
+            [n for _, n in ends],
+            "s-",
+            color="black",
+            markersize=5,
+            linewidth=1.0,
+            label=f"closest {a}-{b}: {separation:.1f} m at {when:.1f} s",
+        )
+        line.set_gid(f"approach/{a}/{b}")
 
 
 def _columns(messages: Sequence[TraceMessage], *names: str) -> dict[str, list[float]]:
@@ -126,34 +192,41 @@ def figure(data: TraceData, title: str = "") -> Figure:
 
     # -- paths: east right, north up --------------------------------------------------------
     if paths:
+        vehicles = _vehicles(paths)
         for topic in paths:
             label = topic.removeprefix(PATH_CHANNEL + "/")
-            color, style = _STYLES.get(label, (None, "-"))
+            color, style, description = _path_style(label, vehicles)
             cols = _columns(data.topic(topic), "east", "north")
             (line,) = ax_path.plot(
                 cols["east"],
                 cols["north"],
                 style,
                 color=color,
-                label=_DESCRIPTIONS.get(label, label),
+                label=description,
                 linewidth=1.2,
             )
             line.set_gid(f"path/{label}")
             if first is not None and cols["time"]:
                 i = min(range(len(cols["time"])), key=lambda k: abs(cols["time"][k] - first))
                 ax_path.plot(cols["east"][i], cols["north"][i], "x", color="tab:red", markersize=9)
-        for m in data.topic(PLAN_CHANNEL)[-1:]:
-            points = m.data.get("points", []) if isinstance(m.data, dict) else []
-            if points:
+        plans = sorted(t for t in data.channels if t.startswith(PLAN_CHANNEL + "/"))
+        for topic in (PLAN_CHANNEL, *plans):
+            for m in data.topic(topic)[-1:]:
+                points = m.data.get("points", []) if isinstance(m.data, dict) else []
+                if not points:
+                    continue
+                vehicle = topic.removeprefix(PLAN_CHANNEL).lstrip("/")
                 (line,) = ax_path.plot(
                     [p["east"] for p in points],
                     [p["north"] for p in points],
                     "o--",
-                    color="tab:orange",
-                    label="plan",
+                    color=_vehicle_color(vehicle, vehicles) if vehicle else "tab:orange",
+                    alpha=0.6 if vehicle else 1.0,
+                    label=f"{vehicle}: plan" if vehicle else "plan",
                     markersize=4,
                 )
-                line.set_gid("plan")
+                line.set_gid(f"plan/{vehicle}" if vehicle else "plan")
+        _approaches(ax_path, data)
         for m in data.topic(OBSTACLES_CHANNEL)[-1:]:
             shapes = m.data.get("obstacles", []) if isinstance(m.data, dict) else []
             for k, shape in enumerate(shapes):

@@ -10,10 +10,12 @@ import asyncio
 import math
 import threading
 from itertools import combinations
+from pathlib import Path
 from typing import Any
 
 import pytest
 from mavsdk_client import fly_mission
+from pymavlink import mavutil
 
 import multicosim as mcs
 from multicosim import ardupilot, fleet, px4
@@ -21,6 +23,8 @@ from multicosim.core.geo import LocalProjection
 from multicosim.mavlink.udp import API_PORT
 from multicosim.physics import Pose, WellClear
 from multicosim.quadrotor import NONE_IRIS
+from multicosim.trace import Recorder, read_trace
+from multicosim.trace._plot import figure
 from pytest_multicosim.px4 import RealPX4
 
 HOME = px4.Home()
@@ -131,6 +135,45 @@ def test_well_clear_is_lost_where_its_thresholds_say(
     assert interval.end == samples[lost[-1] + 1].time
 
 
+@pytest.mark.fidelity("low", "medium")
+def test_one_trace_holds_every_vehicle_and_its_plot_marks_the_closest_approach(
+    fleet_simulator: fleet.Fleet, tmp_path: Path
+) -> None:
+    with fleet_simulator.start() as simulation, Recorder().attach(simulation) as recorder:
+        result = simulation.fly(head_on(10.0, 15.0))
+    recorder.save(tmp_path / "trace.mcap")
+    tlog = recorder.save_tlog(tmp_path / "trace.tlog")
+    assert tlog is not None
+    trace = read_trace(tmp_path / "trace.mcap")
+    # Each vehicle's channels are under its name; the pairs' samples are there too.
+    for name in ("alpha", "bravo"):
+        assert {f"{name}/pose", f"{name}/location/truth", f"mcs/plan/{name}"} <= set(trace.channels)
+    samples = trace.topic("mcs/encounter/alpha/bravo")
+    approach = result.encounter.closest["alpha-bravo"]
+    assert min(m.data["separation"] for m in samples) == pytest.approx(approach.separation)
+    # Bravo's path starts at its own start, 80 m north, in the one frame of the world.
+    bravo = trace.topic("mcs/path/bravo/truth")
+    assert bravo[0].data["north"] == pytest.approx(APART, abs=0.5)
+    # The plot draws both paths and a line between the two at the closest approach.
+    lines: dict[object, Any] = {
+        line.get_gid(): line for ax in figure(trace).axes for line in ax.get_lines()
+    }
+    assert {"path/alpha/truth", "path/bravo/truth", "plan/alpha", "plan/bravo"} <= set(lines)
+    marked = lines["approach/alpha/bravo"]
+    south, north = sorted(marked.get_ydata())
+    assert south <= approach.north <= north
+    assert "closest alpha-bravo" in str(marked.get_label())
+    # The MAVLink log tells the vehicles apart by their system ids.
+    heartbeats = mavutil.mavlink_connection(str(tlog))
+    systems = set()
+    try:
+        while (m := heartbeats.recv_match(type="HEARTBEAT")) is not None:
+            systems.add(m.get_srcSystem())
+    finally:
+        heartbeats.close()
+    assert {1, 2} <= systems
+
+
 def test_overlapping_starts_are_refused_before_anything_starts() -> None:
     with pytest.raises(mcs.ConfigurationError) as info:
         fleet.Fleet({"alpha": fleet.PX4Vehicle(), "bravo": fleet.PX4Vehicle(start=Pose(east=0.2))})
@@ -178,6 +221,10 @@ def test_two_real_px4_pass_each_other_at_their_altitudes(px4_sitl: RealPX4) -> N
     with simulator.start() as simulation:
         instances = {simulation.vehicles[n].instance for n in ("alpha", "bravo")}
         result = simulation.fly(head_on(10.0, 16.0, time_limit=240.0))
+        # Each PX4's own flight log, named after its vehicle (both landed and disarmed).
+        logs = simulation.flight_logs()
+        assert sorted(p.name.split("-")[0] for p in logs) == ["alpha", "bravo"]
+        assert all(p.suffix == ".ulg" and p.stat().st_size > 0 for p in logs)
     assert len(instances) == 2, "two PX4s shared an instance"
     assert result.completed, {n: r.reason for n, r in result.results.items()}
     assert not result.encounter.collisions
