@@ -1,4 +1,4 @@
-"""The falsification benchmark: four problems whose violations are rare.
+"""The falsification benchmark: six problems whose violations are rare.
 
 Each :class:`Problem` is a simulate function (``simulate(sample, fidelity, seed)``, the one
 callback shape of multicosim), a requirement and a search space; the share of the space that
@@ -26,6 +26,10 @@ public APIs:
   than 8 m (the estimator then drops it): a spoof brings it down only if it reaches 7 m and
   is not more than 8 m for long (a narrow band, or a slow ramp through it), during the
   mission.
+* ``px4-separation``: two PX4 quadrotors flying to each other's start on parallel lines 8 m
+  apart, 10 m up, in the sample's wind, with a GPS spoof on ``bravo``, must keep 2 m apart:
+  the spoof moves ``bravo`` onto ``alpha``'s line only if it is about 8 m eastwards and
+  comes before the two meet (a steady offset: the GPS says east, the vehicle goes west).
 
 Every problem runs at low and medium fidelity (MuJoCo physics, realistic sensor noise,
 processes in lockstep); the benchmark searches at low and confirms at medium. The rover
@@ -49,10 +53,11 @@ import numpy as np
 
 import multicosim as mcs
 import multicosim.attacks as attacks
+import multicosim.fleet as fleet
 import multicosim.px4 as px4
 import multicosim.rover as rover
 from multicosim.core.geo import LocalProjection
-from multicosim.physics import Cylinder, Wind
+from multicosim.physics import Cylinder, Pose, Wind
 from multicosim.px4.scenario import default_world
 from multicosim.search.falsify import Choice, FalsificationResult, Integer, Level, Real, falsify
 from multicosim.search.requirements import Requirement
@@ -362,6 +367,45 @@ def px4_clearance(
     }
 
 
+# Two aircraft that meet: alpha north along east = 0, bravo south along east = 8 m, both 10 m
+# up, each to where the other started; wherever they meet (whenever each took off), 8 m apart.
+SEPARATION = 2.0  # m between the bodies
+MEETING = {
+    "alpha": px4.Configuration([_waypoint(60, 0, 10.0)], end="hold", time_limit=90.0),
+    "bravo": px4.Configuration([_waypoint(0, 8, 10.0)], end="hold", time_limit=90.0),
+}
+MEETING_STARTS = {"alpha": Pose(), "bravo": Pose(north=60.0, east=8.0)}
+
+
+def px4_separation(
+    sample: Mapping[str, Any], fidelity: str, seed: int, firmware: px4.SITL | None = None
+) -> dict[str, Any]:
+    """Both missions at once, in the sample's wind, with the sample's GPS spoof on bravo:
+    time and the separation of the two bodies (``firmware``: real PX4 flies both, as for
+    :func:`px4_geofence`)."""
+    wind = Wind(speed=sample["wind"], direction=sample["direction"])
+    world = dataclasses.replace(default_world(fidelity), wind=wind)  # type: ignore[arg-type]
+    simulator = fleet.Fleet(
+        {
+            name: fleet.PX4Vehicle(start=start, firmware=firmware)
+            for name, start in MEETING_STARTS.items()
+        },
+        fidelity=fidelity,  # type: ignore[arg-type]
+        seed=seed,
+        world=world,
+    )
+    spoof = attacks.Jump(
+        offset=attacks.Local(east=sample["east"], north=sample["north"]),
+        start=sample["start"],
+        ramp=sample["ramp"],
+    )
+    attacks.inject(simulator, "bravo/gps", [spoof])
+    with simulator.start() as simulation:
+        result = simulation.fly(MEETING)
+    signals = result.encounter.signals()
+    return {"time": signals["time"], "separation": signals["separation"]}
+
+
 CLEARANCE_SPACE: dict[str, Any] = {
     "north": (-10.0, 75.0),  # m: where the tower is meant to stand (moved off the path)
     "east": (-15.0, 50.0),
@@ -377,6 +421,12 @@ SPOOF_SPACE: dict[str, Any] = {
     "start": (0.0, 60.0),  # s after the start of the run
     "ramp": (0.0, 10.0),  # s to reach the full offset
 }
+SEPARATION_SPACE: dict[str, Any] = {
+    **SPOOF_SPACE,  # bravo's GPS spoof
+    "wind": (0.0, 8.0),  # m/s, steady
+    "direction": (0.0, 360.0),  # degrees clockwise from north, where it blows from
+}
+
 BARO_SPACE: dict[str, Any] = {
     "offset": (-10.0, 10.0),  # m added to the barometric altitude
     "start": (0.0, 60.0),
@@ -428,6 +478,16 @@ PROBLEMS: dict[str, Problem] = {
             px4_clearance,
             Requirement(f"always (clearance >= {CLEARANCE:g})", name="clearance"),
             CLEARANCE_SPACE,
+            200,
+            flies_px4=True,
+        ),
+        Problem(
+            "px4-separation",
+            f"two PX4 missions planned to pass 8 m apart, one under a GPS spoof, in wind, keep "
+            f"{SEPARATION:g} m apart",
+            px4_separation,
+            Requirement(f"always (separation >= {SEPARATION:g})", name="separation"),
+            SEPARATION_SPACE,
             200,
             flies_px4=True,
         ),

@@ -28,6 +28,8 @@ from typing import Any
 import pytest
 
 import multicosim as mcs
+from multicosim import px4
+from multicosim.core.geo import LocalProjection
 from pytest_multicosim.docker import require_docker
 from pytest_multicosim.px4 import RealPX4
 
@@ -71,6 +73,7 @@ LISTINGS = (
     'fleet.PX4Vehicle(start=Pose(north=80.0))},\n    fidelity="low"',
     "def test_crossing_drones_lose_well_clear_but_never_touch",
     "def test_close_encounters_never_collide",
+    'attacks.inject(spoofed, "bravo/gps"',
     "real_ardupilot = ardupilot.SITL(",
 )
 
@@ -371,6 +374,13 @@ def test_fleet_listing_runs() -> None:
     approach = result.encounter.closest["alpha-bravo"]
     # They pass at their altitudes' difference, less their bodies' radii.
     assert approach.separation == pytest.approx(4.5, abs=0.3)
+
+
+def test_fleet_spoof_listing_runs() -> None:
+    result = _run('attacks.inject(spoofed, "bravo/gps"')["flown"]
+    end = result.results["bravo"].trajectory[-1]
+    east = LocalProjection(px4.Home().lat, px4.Home().lon).project(end.true_lat, end.true_lon)[1]
+    assert east == pytest.approx(24.0, abs=1.0), "bravo flew where its GPS said, not 6 m west"
 
 
 def test_fleet_pytest_listing_passes(pytester: pytest.Pytester) -> None:

@@ -55,7 +55,8 @@ def inject(
             "simulator",
             simulator,
             "a scenario that takes faults (multicosim.rover.Rover, multicosim.px4.PX4, "
-            "multicosim.ardupilot.ArduCopter or ArduRover, or one with inject_faults), not started",
+            "multicosim.ardupilot.ArduCopter or ArduRover, multicosim.fleet.Fleet, or one with "
+            "inject_faults), not started",
         )
     return simulator.inject_faults(sensor, models, name=name)
 

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import dataclasses
 import shutil
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
@@ -47,7 +47,7 @@ from ..px4.sitl import SENSOR_RATE, SITL
 from ..px4.standalone import StandaloneAutopilot, StandalonePX4, paced_params
 from ..px4.world import WorldSpec
 from ..quadrotor.airframe import NONE_IRIS
-from ..quadrotor.topics import SENSORS
+from ..quadrotor.topics import SENSORS, Topics, world_topics
 from ..rover import REACH as ROVER_REACH
 from ..runtime.serve import Firmware
 from .monitor import EncounterMonitor, pair_topic
@@ -55,6 +55,8 @@ from .results import FleetMissions, FleetResult, pairs_of
 from .world import Body, FleetWorldSpec
 
 if TYPE_CHECKING:
+    from ..attacks import InjectorComponent
+    from ..attacks.models import Model
     from ..local import ProcessSimulation
     from ..runtime.context import FirmwareContext
     from ..trace import TraceOptions
@@ -264,6 +266,8 @@ class Fleet(Scenario[FleetSimulation]):
         self.world = self._base_world(world, real)
         # With real firmware the world is its simulator, in this process beside its bridges.
         world_placement = resolve("in-process", self.fidelity) if real else self.placement
+        self.world_placement: Placement = world_placement
+        """Where the world runs (and the injectors put on its vehicles' sensors)."""
         self.components: dict[str, PX4Component | ArduPilotComponent] = {
             name: self._component(name, vehicle, realtime) for name, vehicle in vehicles.items()
         }
@@ -311,22 +315,8 @@ class Fleet(Scenario[FleetSimulation]):
         )
         first = None
         self.vehicle_ids: dict[str, NodeId[Any]] = {}
-        for name, component in self.components.items():
-            added: Any = component
-            if name in own:
-                px4 = self._px4(name)
-                added = (
-                    StandaloneAutopilot(px4)
-                    if px4.firmware is None
-                    else StandalonePX4(
-                        px4.firmware,
-                        px4.world,
-                        px4.sitl_params(),
-                        resolve(px4.placement, self.fidelity),
-                        name,
-                    )
-                )
-            node_id = self._add_own(added, anchor=first is None)
+        for name in self.components:
+            node_id = self._add_own(self._added(name), anchor=first is None)
             first = first or node_id
             self.vehicle_ids[name] = node_id
         flown = {n: spec for n, spec in self.gcs_specs.items() if n not in own}
@@ -335,7 +325,80 @@ class Fleet(Scenario[FleetSimulation]):
             InProcessFirmwareComponent(fleet_ground_station(flown, gcs_period), name="fleet.gcs")
         )
         self._arducopters = arducopters
-        self._options = self._trace_options()
+
+    def _added(self, name: str) -> Any:
+        """What the simulation starts for vehicle ``name``: its component, or (its links
+        its own) the autopilot with only its links."""
+        component = self.components[name]
+        vehicle = self.vehicles[name]
+        if not (isinstance(vehicle, PX4Vehicle) and vehicle.own_links):
+            return component
+        px4 = self._px4(name)
+        if px4.firmware is None:
+            return StandaloneAutopilot(px4)
+        return StandalonePX4(
+            px4.firmware,
+            px4.world,
+            px4.sitl_params(),
+            resolve(px4.placement, self.fidelity),
+            name,
+        )
+
+    def inject_faults(
+        self, sensor: str, models: Sequence[Model], *, name: str | None = None
+    ) -> InjectorComponent:
+        """Put an injector with ``models`` on one vehicle's sensor, named
+        ``"<vehicle>/<sensor>"`` (``"bravo/gps"``; see :func:`multicosim.attacks.inject`).
+
+        That vehicle's autopilot (built-in or real PX4) reads the sensor from
+        ``<topic>/attacked``, which the injector fills from the world's topic; the injector
+        runs where the world does.
+        """
+        from ..attacks import InjectorConfig, add_injector, canonical
+        from ..px4 import injectable  # noqa: F401 - registers PX4's sensors
+
+        member, _, which = sensor.partition("/")
+        if member not in self.vehicles or not which:
+            raise ConfigurationError(
+                "sensor", sensor, f"'<vehicle>/<sensor>', a vehicle of {list(self.vehicles)}"
+            )
+        vehicle, component = self.vehicles[member], self.components[member]
+        if not isinstance(component, PX4Component) or (
+            isinstance(vehicle, PX4Vehicle) and vehicle.own_links and vehicle.firmware
+        ):
+            raise ConfigurationError(
+                "sensor",
+                sensor,
+                "a sensor of a vehicle the fleet flies with PX4 (ArduPilot simulates its "
+                "sensors' faults itself: ardupilot.ArduCopter takes them)",
+            )
+        which = canonical("px4", which)
+        reads = component.topics or world_topics(component.world)
+        source = getattr(world_topics(component.world), which)
+        if getattr(reads, which) != source:
+            raise ConfigurationError(
+                "sensor", sensor, "a sensor without an injector (combine models in one)"
+            )
+        spec = component.spec
+        config = InjectorConfig(
+            vehicle="px4",
+            sensor=which,
+            source=source,
+            target=f"{source}/attacked",
+            period=spec.period,
+            models=tuple(models),
+            wire=spec.wire,  # what this vehicle's world and autopilot exchange
+        )
+        injector = add_injector(
+            self,
+            config,
+            name=name or f"{member}-{which}-injector",
+            placement=self.world_placement,
+        )
+        topics = Topics(**{**msgspec.structs.asdict(reads), which: config.target})
+        self.components[member] = dataclasses.replace(component, topics=topics)
+        self.replace(self.vehicle_ids[member], self._added(member))
+        return injector
 
     def _trace_options(self) -> TraceOptions:
         """Each vehicle's channels under its name, from its start; the pairs' samples."""
@@ -452,7 +515,8 @@ class Fleet(Scenario[FleetSimulation]):
             frozenset(
                 n for n, v in self.vehicles.items() if isinstance(v, PX4Vehicle) and v.own_links
             ),
-            self._options,
+            # Now, with every injector's topics in place.
+            self._trace_options(),
         )
         try:
             for name in self._arducopters:

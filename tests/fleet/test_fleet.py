@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import asyncio
 import math
+import re
 import threading
 from itertools import combinations
 from pathlib import Path
@@ -18,7 +19,7 @@ from mavsdk_client import fly_mission
 from pymavlink import mavutil
 
 import multicosim as mcs
-from multicosim import ardupilot, fleet, px4
+from multicosim import ardupilot, attacks, fleet, px4
 from multicosim.core.geo import LocalProjection
 from multicosim.mavlink.udp import API_PORT
 from multicosim.physics import Pose, WellClear
@@ -172,6 +173,52 @@ def test_one_trace_holds_every_vehicle_and_its_plot_marks_the_closest_approach(
     finally:
         heartbeats.close()
     assert {1, 2} <= systems
+
+
+def test_a_spoof_on_one_vehicle_moves_that_vehicle_only() -> None:
+    def fly(spoofed: bool) -> fleet.FleetResult:
+        simulator = fleet.Fleet(
+            {"alpha": fleet.PX4Vehicle(), "bravo": fleet.PX4Vehicle(start=Pose(east=30.0))},
+            fidelity="low",
+        )
+        if spoofed:
+            # Bravo's GPS says 6 m east of where it is: it flies 6 m west of its leg.
+            spoof = attacks.Jump(offset=attacks.Local(east=6.0), start=0.0, ramp=3.0)
+            injector = attacks.inject(simulator, "bravo/gps", [spoof])
+            assert injector.config.target == "bravo/gps/attacked"
+        with simulator.start() as simulation:
+            return simulation.fly(
+                {
+                    "alpha": px4.Configuration([wp(40, 0, 10)]),
+                    "bravo": px4.Configuration([wp(40, 30, 10)]),
+                }
+            )
+
+    clean, spoofed = fly(False), fly(True)
+    for result in (clean, spoofed):
+        assert result.completed, {n: r.reason for n, r in result.results.items()}
+
+    def end(result: fleet.FleetResult, name: str) -> tuple[float, float, float]:
+        return _true(result.results[name].trajectory[-1])
+
+    assert end(spoofed, "bravo")[1] == pytest.approx(end(clean, "bravo")[1] - 6.0, abs=1.0)
+    assert end(spoofed, "alpha") == pytest.approx(end(clean, "alpha"), abs=0.01)
+
+
+@pytest.mark.parametrize(
+    ("sensor", "says"),
+    [
+        ("gps", "'<vehicle>/<sensor>'"),
+        ("charlie/gps", "'<vehicle>/<sensor>'"),
+        ("alpha/sonar", "sonar"),
+    ],
+)
+def test_a_fault_on_no_vehicle_s_sensor_is_refused(sensor: str, says: str) -> None:
+    simulator = fleet.Fleet(
+        {"alpha": fleet.PX4Vehicle(), "bravo": fleet.PX4Vehicle(start=Pose(east=30.0))}
+    )
+    with pytest.raises(mcs.ConfigurationError, match=re.escape(says)):
+        attacks.inject(simulator, sensor, [attacks.Bias(offset=1.0)])
 
 
 def test_overlapping_starts_are_refused_before_anything_starts() -> None:
