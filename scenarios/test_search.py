@@ -82,3 +82,21 @@ def test_a_violation_confirmed_at_medium_is_confirmed_on_real_px4(
     assert result.transfer_rates[px4.SITL_LEVEL] == 1 / real.tried
     # Real PX4 flew exactly the real level's runs, on the MuJoCo world (medium fidelity).
     assert [f for f in flights if f[1] is not None] == [("medium", sitl)] * real.runs
+
+
+@pytest.mark.fidelity("medium")
+def test_two_aircraft_lose_separation_on_real_px4_flying_both(
+    px4_sitl: RealPX4, mcs_seed: int
+) -> None:
+    # Searched at low with the built-in autopilot flying both, confirmed at medium, then
+    # flown with two real PX4 instances in one world.
+    problem = PROBLEMS["px4-separation"]
+    result = problem.search(seed=mcs_seed, levels=problem.levels(px4_sitl.sitl()))
+    assert result.falsified, result.summary()
+    cx = result.counterexample
+    assert cx is not None
+    assert cx.failing_levels == ("low", "medium", px4.SITL_LEVEL)
+    assert cx.results[px4.SITL_LEVEL].evaluation.robustness < 0
+    real = result.stats[px4.SITL_LEVEL]
+    assert real.transferred == 1
+    assert real.runs == real.tried >= 1

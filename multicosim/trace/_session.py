@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..core.errors import MulticosimError
 from ..local.simulation import add_start_observer
-from ._convert import TRAJECTORY_CHANNEL, Converter
+from ._convert import TRAJECTORY_CHANNEL, Converter, trace_options
 from ._fingerprint import Fingerprint, fingerprint
 from ._recorder import Recorder
 
@@ -65,6 +65,11 @@ class TestTrace:
         self.types = dict(types or {})
         self.converters = list(converters)
         self.recorders: list[Recorder] = []
+        self.depends_on_firmware = False
+        """Whether real firmware's runs (on their own threads) decided what this test holds,
+        though they are not among its recordings: a search's confirmations on real PX4
+        decide which run it hands over (:meth:`take`). Its fingerprint is then not
+        deterministic."""
         self.example = 0
         self._evaluation: tuple[Evaluated, Signals] | None = None
         self._lock = threading.Lock()
@@ -163,11 +168,26 @@ class TestTrace:
         """The latest requirement evaluation noted, if any."""
         return self._evaluation[0] if self._evaluation is not None else None
 
+    @property
+    def deterministic(self) -> bool:
+        """Whether runs of one seed record the same samples here (no real firmware flew)."""
+        with self._lock:
+            recorders = list(self.recorders)
+            wrappers = [self._wrapped.get(id(r)) for r in recorders]
+        # A scenario's own options say whether its firmware is real (they are applied to
+        # its recording when it is saved; read them now).
+        return not self.depends_on_firmware and all(
+            (r.options if w is None else trace_options(w)).deterministic
+            for r, w in zip(recorders, wrappers, strict=True)
+        )
+
     def fingerprint(self) -> Fingerprint:
         """The hash of every sample the test's simulations routed (see :func:`fingerprint`)."""
         with self._lock:
             recorders = list(self.recorders)
-        return fingerprint(recorders)
+        found = fingerprint(recorders)
+        found.deterministic = self.deterministic
+        return found
 
     def save(self, directory: str | Path, *, plot: bool = True, **metadata: object) -> list[Path]:
         """Write one MCAP trace per recorded simulation, and beside each its Foxglove layout

@@ -163,6 +163,9 @@ class Search:
         wall = time.perf_counter() - started
         self.trials.append(Trial(index, sample, level, evaluation.robustness, wall))
         saved: tuple[Path, ...] = ()
+        if session is not None and self.test_trace is not None and not session.deterministic:
+            # What real firmware did here decides which run the search hands over.
+            self.test_trace.depends_on_firmware = True
         if session is not None and not evaluation.satisfied:
             if self.test_trace is not None:
                 self.test_trace.take(session)
