@@ -16,6 +16,8 @@ from collections.abc import Iterator
 
 import pytest
 
+from multicosim.local.processes import before_exec
+
 
 def free_udp_port() -> int:
     """A UDP port that was free a moment ago on 127.0.0.1."""
@@ -50,6 +52,8 @@ def sitl_process(
             stdout=out,
             stderr=subprocess.STDOUT,
             start_new_session=True,
+            # It dies with pytest even where pytest is killed before this fixture's teardown.
+            preexec_fn=before_exec(None),
         )
         try:
             deadline = time.monotonic() + timeout
