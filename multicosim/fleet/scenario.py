@@ -202,7 +202,7 @@ class FleetSimulation(ScenarioSimulation):
         after its vehicle (``alpha-12_00_01.ulg``), in the run directory."""
         out: list[Path] = []
         for name, node in self.vehicles.items():
-            logs = getattr(node, "flight_logs", None)  # real firmware flown by the fleet's
+            logs = getattr(node, "flight_logs", None)  # the nodes of vehicles the fleet flies
             if logs is None:
                 continue
             into = self.run_dir / f"{name}-logs"
