@@ -50,6 +50,7 @@ BENCHMARKS = (
     "docker",
     "throughput",
     "scaling",
+    "fleet",
     "campaign",
 )
 
@@ -460,6 +461,58 @@ def scaling_rows(data: dict[str, Any]) -> list[Row]:
     return rows
 
 
+def fleet_rows(data: dict[str, Any]) -> list[Row]:
+    """Cost against the number of vehicles; one vehicle with and without the fleet."""
+    rows = []
+    linear = 1.1
+    for level, g in data["growth"].items():
+        first, last = g["points"][0], g["points"][-1]
+        exp = g["exponent"]
+        span = f"{first['vehicles']}-{last['vehicles']}"
+        detail = (
+            f"exponent {exp:.2f}; {g['per_vehicle'] * 1e3:.1f} ms per vehicle per simulated s "
+            f"({first['speed_factor']:.0f}x -> {last['speed_factor']:.1f}x real time)"
+        )
+        rows.append(
+            row(
+                "fleet (30 m leg each, at once)",
+                f"wall time vs {span} built-in vehicles, {level}",
+                detail,
+                ratio=exp,
+                target=f"linear (<= {linear})" if level == "low" else "",
+                met=exp <= linear if level == "low" else None,
+                limit=""
+                if level == "low"
+                else "each vehicle's autopilot is a process of its own and the world steps "
+                "every body: past 2 vehicles the 2 cores are shared by more runnable processes",
+            )
+        )
+    for p in data["real"].get("points", []):
+        rows.append(
+            row(
+                "fleet (30 m leg each, at once)",
+                f"{p['vehicles']} real PX4 instance(s) in one medium world",
+                f"{p['speed_factor']:.1f}x real time",
+                ratio=p["speed_factor"],
+                unit="x",
+            )
+        )
+    for level, o in data["one_vehicle"].items():
+        per = o["per_sim_s"]
+        rows.append(
+            row(
+                "fleet (30 m leg each, at once)",
+                f"one vehicle, {level}: fleet of one / px4.PX4 (wall per simulated s)",
+                f"{o['ratio']:.2f} ({per['fleet of one'] * 1e3:.1f} / "
+                f"{per['px4.PX4'] * 1e3:.1f} ms)",
+                ratio=o["ratio"],
+                target="<= 1.10 (within noise)",
+                met=o["ratio"] <= 1.10,
+            )
+        )
+    return rows
+
+
 BUILDERS: dict[str, Callable[[dict[str, dict[str, Any]]], list[Row]]] = {
     "rover": lambda r: speed_rows(r["rover"], "rover"),
     "px4": lambda r: speed_rows(r["px4"], "PX4"),
@@ -474,6 +527,7 @@ BUILDERS: dict[str, Callable[[dict[str, dict[str, Any]]], list[Row]]] = {
     "trace": lambda r: trace_rows(r["trace"]),
     "throughput": lambda r: throughput_rows(r["throughput"]),
     "scaling": lambda r: scaling_rows(r["scaling"]),
+    "fleet": lambda r: fleet_rows(r["fleet"]),
     "campaign": lambda r: campaign_rows(r["campaign"]),
     "fmi": lambda r: fmi_rows(r["fmi"]),
 }
