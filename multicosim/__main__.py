@@ -1,4 +1,4 @@
-"""``python -m multicosim``: the ``multicosim`` command (:mod:`multicosim.cli`)."""
+"""``python -m multicosim``: the ``multicosim`` command (``multicosim.cli``)."""
 
 import sys
 

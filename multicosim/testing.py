@@ -1,17 +1,19 @@
 """Small components for testing simulators and backends, in-process, as processes or in containers.
 
 They are shipped in the package (not only in the test suite) so that every execution
-environment, a container image included, can run them::
+environment, a container image included, can run them:
 
-    python -m multicosim participant multicosim.testing:Cart
-    python -m multicosim serve multicosim.testing:drive --port {port}
+```bash
+python -m multicosim participant multicosim.testing:Cart
+python -m multicosim serve multicosim.testing:drive --port {port}
+```
 
-:class:`Faulty` misbehaves on cue (stuck in its step, exiting, raising, allocating without
-bound), for tests of how the harness reports faults (``tests/faults``).
+[`Faulty`][multicosim.testing.Faulty] misbehaves on cue (stuck in its step, exiting, raising,
+allocating without bound), for tests of how the harness reports faults (``tests/faults``).
 
-:func:`check_component` checks a component of one's own the way multicosim runs it
-(in-process and as a process: determinism for a seed, idempotent stop, nothing left
-behind), as Gymnasium's ``check_env`` checks an environment.
+[`check_component`][multicosim.testing.check_component] checks a component of one's own the way
+multicosim runs it (in-process and as a process: determinism for a seed, idempotent stop, nothing
+left behind), as Gymnasium's ``check_env`` checks an environment.
 """
 
 from __future__ import annotations
@@ -61,10 +63,11 @@ class CartState(Message):
 class Cart:
     """A 1-D cart: integrates the commanded speed every ``period``; publishes ``state``.
 
-    It listens on the topic ``cmd`` for :class:`Speed` messages (the last one received in a
-    step sets the speed) and publishes a :class:`CartState` on ``state`` every step: a
-    controller of your own drives it with ``ctx.publish("cmd", Speed(speed=1.0))``.
-    ``noise`` adds seeded Gaussian noise to the published position (exercises ``ctx.rng``).
+    It listens on the topic ``cmd`` for [`Speed`][multicosim.testing.Speed] messages (the last one
+    received in a step sets the speed) and publishes a [`CartState`][multicosim.testing.CartState]
+    on ``state`` every step: a controller of your own drives it with ``ctx.publish("cmd",
+    Speed(speed=1.0))``. ``noise`` adds seeded Gaussian noise to the published position (exercises
+    ``ctx.rng``).
     """
 
     def __init__(self, period: float = 0.01, noise: float = 0.0) -> None:
@@ -75,7 +78,7 @@ class Cart:
         self.command: Subscription[Speed] | None = None
 
     def setup(self, ctx: StepContext) -> None:
-        """Subscribe to ``cmd`` (:class:`Speed` messages)."""
+        """Subscribe to ``cmd`` ([`Speed`][multicosim.testing.Speed] messages)."""
         self.command = ctx.subscribe("cmd", Speed)
 
     def step(self, ctx: StepContext) -> None:
@@ -89,7 +92,7 @@ class Cart:
 
 
 class Fault(Message):
-    """What :class:`Faulty` does, from simulated time ``at`` (s) on.
+    """What [`Faulty`][multicosim.testing.Faulty] does, from simulated time ``at`` (s) on.
 
     ``how``: ``stuck`` (its step computes forever: a busy Python loop), ``exit`` (it exits
     with code 0), ``raise`` (its step raises RuntimeError), ``setup`` (its setup raises,
@@ -206,7 +209,7 @@ def drive(msg: Drive, ctx: FirmwareContext) -> DriveReport:
 
 
 class Echo(Message):
-    """A message echoed back by :func:`echo`."""
+    """A message echoed back by [`echo`][multicosim.testing.echo]."""
 
     text: str
     payload: bytes = b""
@@ -219,7 +222,7 @@ def echo(msg: Echo, ctx: FirmwareContext) -> Echo:
 
 
 class Misbehave(Message):
-    """Ask :func:`misbehave` to fail in a given way.
+    """Ask [`misbehave`][multicosim.testing.misbehave] to fail in a given way.
 
     ``how``: ``raise``; ``exit`` with ``code``; ``hang`` (sleep) or ``spin`` (a busy Python
     loop) for ``seconds``; ``step`` (step the clock for ``seconds`` of simulated time);

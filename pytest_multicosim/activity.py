@@ -46,7 +46,7 @@ class Activity:
 
 
 activity_key = pytest.StashKey[Activity]()
-"""Where ``config.stash`` keeps the session's :class:`Activity`."""
+"""Where ``config.stash`` keeps the session's ``Activity``."""
 
 
 def fixture_names(modules: Iterable[ModuleType]) -> frozenset[str]:

@@ -1,15 +1,17 @@
 """Fixtures of the ArduPilot scenarios (registered by the multicosim plugin).
 
 ``ardupilot_copter_simulation`` and ``ardupilot_rover_simulation`` are started
-:class:`multicosim.ardupilot.ArduPilotSimulation` s, real ArduCopter or ArduRover SITL on
-our MuJoCo worlds at the fidelity, placement and seed the options and the ``fidelity`` marker
-select, stopped when the test ends whatever happens::
+[`multicosim.ardupilot.ArduPilotSimulation`][multicosim.ardupilot.ArduPilotSimulation] s, real
+ArduCopter or ArduRover SITL on our MuJoCo worlds at the fidelity, placement and seed the options
+and the ``fidelity`` marker select, stopped when the test ends whatever happens:
 
-    @pytest.mark.fidelity("medium", "high")
-    def test_mission(ardupilot_copter_simulation):
-        home = ardupilot_copter_simulation.home
-        result = ardupilot_copter_simulation.firmware.send(ardupilot.Configuration([...]))
-        assert result.completed
+```python
+@pytest.mark.fidelity("medium", "high")
+def test_mission(ardupilot_copter_simulation):
+    home = ardupilot_copter_simulation.home
+    result = ardupilot_copter_simulation.firmware.send(ardupilot.Configuration([...]))
+    assert result.completed
+```
 
 ``ardupilot_copter_simulator`` / ``ardupilot_rover_simulator`` are the unstarted simulators
 (add injectors, or ``gps_noise``, before starting them); ``ardupilot_params`` can be

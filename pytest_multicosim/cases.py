@@ -2,39 +2,43 @@
 
 A UAV test as the PX4 community writes one is data, not code: a QGroundControl mission, a
 parameter file, obstacles, a wind, the autopilot and the fidelity levels, and what must hold.
-One file is one test::
+One file is one test:
 
-    # test_corridor.mcs.yaml
-    description: the survey leg passes between two masts in a crosswind
-    autopilot: px4                 # px4 (built-in, and real PX4 where named) or ardupilot
-    fidelity: [low, medium]        # default: every level the autopilot flies
-    plan: corridor.plan            # QGroundControl .plan, relative to this file
-    params: corridor.params        # optional: PX4 "param set" lines, QGC .params, name,value CSV
-                                   # (or the values themselves: {MPC_XY_CRUISE: 8})
-    obstacles:
-      - {type: box, north: 40, east: 6, length: 4, width: 4, height: 30, yaw: 20}
-      - {type: cylinder, north: 70, east: -5, radius: 1.5, height: 25}
-    wind: {speed: 4, direction: 270, turbulence: 1.0}
-    requirements:                  # signal temporal logic over the trajectory's signals
-      - always (clearance >= 1.5)
-      - always (true_alt <= 40)
-    time_limit: 500                # optional: simulated seconds the mission may take
-    score: competition             # optional: also judge it as the UAV test competition does
+```yaml
+# test_corridor.mcs.yaml
+description: the survey leg passes between two masts in a crosswind
+autopilot: px4                 # px4 (built-in, and real PX4 where named) or ardupilot
+fidelity: [low, medium]        # default: every level the autopilot flies
+plan: corridor.plan            # QGroundControl .plan, relative to this file
+params: corridor.params        # optional: PX4 "param set" lines, QGC .params, name,value CSV
+                               # (or the values themselves: {MPC_XY_CRUISE: 8})
+obstacles:
+  - {type: box, north: 40, east: 6, length: 4, width: 4, height: 30, yaw: 20}
+  - {type: cylinder, north: 70, east: -5, radius: 1.5, height: 25}
+wind: {speed: 4, direction: 270, turbulence: 1.0}
+requirements:                  # signal temporal logic over the trajectory's signals
+  - always (clearance >= 1.5)
+  - always (true_alt <= 40)
+time_limit: 500                # optional: simulated seconds the mission may take
+score: competition             # optional: also judge it as the UAV test competition does
+```
 
 A case of several vehicles in one world names them under ``vehicles`` instead of one
 ``plan``: each its plan, where it starts and its parameters; they fly at once, on one clock
-(the fleet fixtures, :mod:`pytest_multicosim.fleet`), and the requirements read the
-encounter's signals (``separation``, ``horizontal_separation``, ``vertical_separation``,
-``cpa_distance``, ``cpa_time``, ``well_clear``, and each pair's, ``separation_alpha_bravo``)::
+(the fleet fixtures, [`pytest_multicosim.fleet`][pytest_multicosim.fleet]), and the requirements
+read the encounter's signals (``separation``, ``horizontal_separation``, ``vertical_separation``,
+``cpa_distance``, ``cpa_time``, ``well_clear``, and each pair's, ``separation_alpha_bravo``):
 
-    # test_crossing.mcs.yaml
-    description: two quadrotors cross at right angles, 8 m apart in height
-    vehicles:
-      alpha: {plan: north.plan}
-      bravo: {plan: east.plan, start: {north: 40, east: -30}, params: {MPC_XY_CRUISE: 6}}
-    well_clear: NMAC               # the volume the encounter judges (default NMAC)
-    requirements:
-      - always (separation >= 5)
+```yaml
+# test_crossing.mcs.yaml
+description: two quadrotors cross at right angles, 8 m apart in height
+vehicles:
+  alpha: {plan: north.plan}
+  bravo: {plan: east.plan, start: {north: 40, east: -30}, params: {MPC_XY_CRUISE: 6}}
+well_clear: NMAC               # the volume the encounter judges (default NMAC)
+requirements:
+  - always (separation >= 5)
+```
 
 A vehicle collision fails it (the pair, the time, the closing speed), as a vehicle's
 collision with an obstacle, an incomplete mission or a violated requirement do.
@@ -45,10 +49,10 @@ the fidelity levels like any ``@pytest.mark.fidelity`` test, runs on the vehicle
 one, artifacts, replay command) and fails when the vehicle collides, when the mission does
 not complete, or when a requirement is violated, in that order. With ``score: competition``
 the flight is also scored as the UAV Testing Competition scores it
-(:mod:`multicosim.px4.competition`): its distances to the obstacles, its points and verdict
-become the test's properties, and closer than 1.5 m fails it (a soft fail) after a collision
-(a hard fail). A malformed file is a collection error naming the file, the field and what is
-allowed.
+([`multicosim.px4.competition`][multicosim.px4.competition]): its distances to the obstacles, its
+points and verdict become the test's properties, and closer than 1.5 m fails it (a soft fail) after
+a collision (a hard fail). A malformed file is a collection error naming the file, the field and
+what is allowed.
 """
 
 from __future__ import annotations

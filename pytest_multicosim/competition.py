@@ -1,17 +1,17 @@
 """The UAV Testing Competition's case files collected as tests, converted, and summed up.
 
 A test generator of the competition writes its cases as YAML files in an output folder
-(:mod:`multicosim.px4.competition` reads them). Named with ``--mcs-competition DIR`` (or the
-``mcs_competition`` ini key), a folder's YAML files whose top level holds ``drone:`` and
-``simulation:`` are collected, each as a case of ours (:mod:`.cases`) judged with
-``score: competition``: one test named after the file, parametrized over the fidelity levels,
-flown on the PX4 fixtures (real PX4 too where one is configured), with the competition's
-distances, points and verdict as its properties. No other YAML file is touched, and nothing
-is collected without the option.
+([`multicosim.px4.competition`][multicosim.px4.competition] reads them). Named with
+``--mcs-competition DIR`` (or the ``mcs_competition`` ini key), a folder's YAML files whose top
+level holds ``drone:`` and ``simulation:`` are collected, each as a case of ours
+([`cases`][pytest_multicosim.cases]) judged with ``score: competition``: one test named after the
+file, parametrized over the fidelity levels, flown on the PX4 fixtures (real PX4 too where one is
+configured), with the competition's distances, points and verdict as its properties. No other YAML
+file is touched, and nothing is collected without the option.
 
-The session's summary of their scores is :mod:`.scores`'s.
+The session's summary of their scores is ``scores``'s.
 
-:func:`to_mcs` and :func:`from_mcs` convert a case to our ``.mcs.yaml`` and back.
+``to_mcs`` and ``from_mcs`` convert a case to our ``.mcs.yaml`` and back.
 """
 
 from __future__ import annotations
@@ -72,7 +72,8 @@ def to_case(path: Path, at: Path | None = None) -> Case:
     folder of ``at`` (where the ``.mcs.yaml`` is to be; default: beside ``path``).
 
     Raises:
-        ConfigurationError: what :func:`multicosim.px4.competition.read_case` raises.
+        ConfigurationError: what
+        [`multicosim.px4.competition.read_case`][multicosim.px4.competition.read_case] raises.
     """
     from multicosim.px4.competition import read_case
 
@@ -93,7 +94,7 @@ def to_case(path: Path, at: Path | None = None) -> Case:
 
 def from_case(case: Case, at: Path) -> Any:
     """A case of ours (its files relative to ``at``'s folder) as a competition case: a
-    :class:`multicosim.px4.competition.CompetitionCase`.
+    [`multicosim.px4.competition.CompetitionCase`][multicosim.px4.competition.CompetitionCase].
 
     Raises:
         ConfigurationError: for what the competition's format cannot say (ArduPilot, wind,
@@ -169,7 +170,8 @@ def from_mcs(source: str | Path, dest: str | Path) -> None:
 
 
 class CompetitionFile(CaseFile):
-    """A competition case file collected as a module of one test (see :class:`CaseFile`)."""
+    """A competition case file collected as a module of one test (see
+    [`CaseFile`][pytest_multicosim.competition.CaseFile])."""
 
     def load(self) -> Case:
         """The competition case in the file, as a case of ours scored as the competition does."""

@@ -1,7 +1,7 @@
 """Placements as the plugin sees them: prepared before a test, skipped where they cannot run;
 the Docker engine's runtime image and sweep.
 
-Tests on a placement get it prepared (:func:`prepared`; the ``mcs_placement`` fixture and the
+Tests on a placement get it prepared (``prepared``; the ``mcs_placement`` fixture and the
 scenario fixtures do): where it cannot run here (no Docker engine, say) they are skipped with
 the reason, or fail with ``MCS_REQUIRE_<NAME>=1`` (``MCS_REQUIRE_DOCKER=1`` in CI). Nothing
 here imports the Docker SDK before it is needed, so a session that never uses the docker

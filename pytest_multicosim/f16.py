@@ -1,20 +1,23 @@
 """Fixtures of the F-16 scenario (registered by the multicosim plugin).
 
-``aerobench`` is AeroBench's F-16 models (:class:`multicosim.f16.AeroBench`), from
-``--mcs-aerobench-dir`` (its ini twin ``mcs_aerobench_dir``), else ``MCS_AEROBENCH_DIR``, else
+``aerobench`` is AeroBench's F-16 models ([`multicosim.f16.AeroBench`][multicosim.f16.AeroBench]),
+from ``--mcs-aerobench-dir`` (its ini twin ``mcs_aerobench_dir``), else ``MCS_AEROBENCH_DIR``, else
 ``../shared/aerobench`` beside the project; a test that uses it is skipped, with the reason,
 where there is none (and fails where a directory is named that is not AeroBench's).
-``f16_simulation`` is a started :class:`multicosim.f16.F16Simulation` at the fidelity,
-placement and seed the options and the ``fidelity`` marker select, stopped when the test ends
-whatever happens; ``f16_initial`` (override it in a module or conftest) is where it starts::
+``f16_simulation`` is a started [`multicosim.f16.F16Simulation`][multicosim.f16.F16Simulation] at
+the fidelity, placement and seed the options and the ``fidelity`` marker select, stopped when the
+test ends whatever happens; ``f16_initial`` (override it in a module or conftest) is where it
+starts:
 
-    @pytest.mark.fidelity("low", "medium")
-    def test_recovers(f16_simulation):
-        flight = f16_simulation.fly()
-        assert flight.lowest.altitude > 0
+```python
+@pytest.mark.fidelity("low", "medium")
+def test_recovers(f16_simulation):
+    flight = f16_simulation.fly()
+    assert flight.lowest.altitude > 0
+```
 
-``f16_simulator`` is the unstarted :class:`multicosim.f16.F16`. Heavy imports happen inside
-the fixtures.
+``f16_simulator`` is the unstarted [`multicosim.f16.F16`][multicosim.f16.F16]. Heavy imports happen
+inside the fixtures.
 """
 
 from __future__ import annotations
@@ -69,7 +72,8 @@ def aerobench(request: pytest.FixtureRequest) -> AeroBench:
 
 @pytest.fixture
 def f16_initial() -> InitialState | None:
-    """Where ``f16_simulator`` starts (None: :class:`multicosim.f16.InitialState`'s default)."""
+    """Where ``f16_simulator`` starts (None:
+    [`multicosim.f16.InitialState`][multicosim.f16.InitialState]'s default)."""
     return None
 
 

@@ -73,7 +73,7 @@ def fidelity_of(item: pytest.Item) -> str | None:
 
 
 deselected_key = pytest.StashKey[int]()
-"""How many items :func:`deselect` dropped in this session (the summary line counts them)."""
+"""How many items ``deselect`` dropped in this session (the summary line counts them)."""
 
 
 def deselect(

@@ -130,11 +130,13 @@ def mcs_fresh_simulation() -> Any:
     """A new simulation per Hypothesis example, stopped when the example ends.
 
     Session-scoped on purpose: Hypothesis rejects function-scoped fixtures in ``@given``
-    tests because they are not reset between examples::
+    tests because they are not reset between examples:
 
-        @given(mission=rover.strategies.missions())
-        def test_x(mcs_fresh_simulation, mission):
-            with mcs_fresh_simulation(rover.Rover) as simulation: ...
+    ```python
+    @given(mission=rover.strategies.missions())
+    def test_x(mcs_fresh_simulation, mission):
+        with mcs_fresh_simulation(rover.Rover) as simulation: ...
+    ```
     """
     from multicosim.search.strategies import FreshSimulations
 

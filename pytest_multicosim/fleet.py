@@ -1,20 +1,23 @@
 """Fixtures of the fleet scenario (registered by the multicosim plugin).
 
-``fleet_simulation`` is a started :class:`multicosim.fleet.FleetSimulation` of the vehicles
-``fleet_vehicles`` names (override it in a module or conftest), at the fidelity, placement
-and seed the options and the ``fidelity`` marker select, stopped when the test ends::
+``fleet_simulation`` is a started
+[`multicosim.fleet.FleetSimulation`][multicosim.fleet.FleetSimulation] of the vehicles
+``fleet_vehicles`` names (override it in a module or conftest), at the fidelity, placement and seed
+the options and the ``fidelity`` marker select, stopped when the test ends:
 
-    @pytest.fixture
-    def fleet_vehicles():
-        return {"alpha": fleet.PX4Vehicle(), "bravo": fleet.PX4Vehicle(start=Pose(north=40))}
+```python
+@pytest.fixture
+def fleet_vehicles():
+    return {"alpha": fleet.PX4Vehicle(), "bravo": fleet.PX4Vehicle(start=Pose(north=40))}
 
-    @pytest.mark.fidelity("low", "medium")
-    def test_they_keep_apart(fleet_simulation):
-        result = fleet_simulation.fly({"alpha": ..., "bravo": ...})
-        assert result.encounter.min_separation() > 5.0
+@pytest.mark.fidelity("low", "medium")
+def test_they_keep_apart(fleet_simulation):
+    result = fleet_simulation.fly({"alpha": ..., "bravo": ...})
+    assert result.encounter.min_separation() > 5.0
+```
 
-``fleet_simulator`` is the unstarted :class:`multicosim.fleet.Fleet`; ``fleet_world`` its
-world's configuration and ``fleet_well_clear`` the volume its encounter judges.
+``fleet_simulator`` is the unstarted [`multicosim.fleet.Fleet`][multicosim.fleet.Fleet];
+``fleet_world`` its world's configuration and ``fleet_well_clear`` the volume its encounter judges.
 """
 
 from __future__ import annotations

@@ -1,22 +1,24 @@
 """Fixtures for FMUs (registered by the multicosim plugin).
 
-``fmu`` is a factory of :class:`multicosim.fmi.FMU` components that run where the test's
-placement says: in-process at low fidelity, as a process at medium and high (the fidelity's
+``fmu`` is a factory of [`multicosim.fmi.FMU`][multicosim.fmi.FMU] components that run where the
+test's placement says: in-process at low fidelity, as a process at medium and high (the fidelity's
 default), in a container (its image built first) with ``--mcs-placement=docker``. Its
 simulators and simulations are stopped at teardown and recorded for the test's trace,
-whatever happens::
+whatever happens:
 
-    @pytest.mark.fidelity("low", "medium")
-    def test_plant(fmu):
-        simulator = fmu.simulator()
-        plant = simulator.add(fmu("plant.fmu", inputs={"u": "cmd"}, outputs={"y": "state"}))
-        simulator.add(mcs.InProcessComponent(Controller, name="controller"))
-        simulation = simulator.start()
-        simulation.advance(10.0)
-        result = simulation.get(plant).result()      # what fmpy.simulate_fmu returns
+```python
+@pytest.mark.fidelity("low", "medium")
+def test_plant(fmu):
+    simulator = fmu.simulator()
+    plant = simulator.add(fmu("plant.fmu", inputs={"u": "cmd"}, outputs={"y": "state"}))
+    simulator.add(mcs.InProcessComponent(Controller, name="controller"))
+    simulation = simulator.start()
+    simulation.advance(10.0)
+    result = simulation.get(plant).result()      # what fmpy.simulate_fmu returns
 
-    def test_ball(fmu):
-        result = fmu.simulate("BouncingBall.fmu", stop_time=3.0, parameters={"e": 0.8})
+def test_ball(fmu):
+    result = fmu.simulate("BouncingBall.fmu", stop_time=3.0, parameters={"e": 0.8})
+```
 
 A failing test's trace has one channel per FMU (its record, typed from the model
 description, with units) and its log. ``reference_fmus`` is the directory of the Modelica
@@ -49,8 +51,8 @@ REFERENCE_FMUS_ENV = "MCS_REFERENCE_FMUS"
 class FMUFactory:
     """The ``fmu`` fixture: ``fmu(path, **options)`` is an FMU component for this test.
 
-    Options are those of :class:`multicosim.fmi.FMU`; ``placement`` defaults to the test's
-    (:attr:`placement`).
+    Options are those of [`multicosim.fmi.FMU`][multicosim.fmi.FMU]; ``placement`` defaults to the
+    test's ([`placement`][pytest_multicosim.fmi.FMUFactory.placement]).
     """
 
     def __init__(
@@ -80,7 +82,7 @@ class FMUFactory:
         return tracked(self.placement.simulator(seed=self.seed), self._simulations)
 
     def simulate(self, path: str | os.PathLike[str], *args: Any, **options: Any) -> Any:
-        """:func:`multicosim.fmi.simulate` where this test's FMUs run, recorded for its trace."""
+        """``multicosim.fmi.simulate`` where this test's FMUs run, recorded for its trace."""
         from multicosim import fmi
 
         placement = options.pop("placement", self.placement)

@@ -4,21 +4,23 @@
 of the test (whichever of ``px4_simulator`` and ``rover_simulator`` it uses), between the
 world and the firmware, at the test's fidelity and placement; on the ArduPilot simulators
 (``ardupilot_copter_simulator``, ``ardupilot_rover_simulator``) the same models become
-ArduPilot's own simulated sensor faults::
+ArduPilot's own simulated sensor faults:
 
-    @pytest.mark.fidelity("low", "medium")
-    def test_spoof(px4_simulator, gps_noise):
-        gps_noise(spoof=attacks.Local(north=10.0), start=8.0)   # 10 m north from t = 8 s
-        simulation = px4_simulator.start()
-        result = simulation.firmware.send(config)
+```python
+@pytest.mark.fidelity("low", "medium")
+def test_spoof(px4_simulator, gps_noise):
+    gps_noise(spoof=attacks.Local(north=10.0), start=8.0)   # 10 m north from t = 8 s
+    simulation = px4_simulator.start()
+    result = simulation.firmware.send(config)
+```
 
 Call it before starting the simulator. Keyword arguments build the models (all share
 ``start`` and ``end``): ``std``/``mean`` (Gaussian noise), ``bias``, ``drift`` and
 ``drift_rate`` (random walk), ``spoof`` and ``ramp`` (a jump), ``dropout`` (no fix),
 ``delay`` (s); a position's values are given by name (``multicosim.attacks.Local``), a
-body axis's as a tuple; ``models`` adds any :mod:`multicosim.attacks` models as they are. ``sensor``
-picks another sensor (``"mag"``/``"magnetometer"``, ``"baro"``, ...). Heavy imports happen
-inside the fixture.
+body axis's as a tuple; ``models`` adds any [`multicosim.attacks`][multicosim.attacks] models as
+they are. ``sensor`` picks another sensor (``"mag"``/``"magnetometer"``, ``"baro"``, ...). Heavy
+imports happen inside the fixture.
 """
 
 from __future__ import annotations

@@ -4,10 +4,12 @@ A library is a module named in the ``multicosim.fixtures`` entry-point group; th
 registers each as a pytest plugin (``-p no:MODULE`` keeps one out), and a test that uses one
 of its fixtures is a test of ours (header line, traces, report section). multicosim's own
 scenarios are registered this way (``pytest_multicosim.rover``, ``.px4``, ``.ardupilot``,
-``.gps_noise``); a package of yours adds one in its ``pyproject.toml``::
+``.gps_noise``); a package of yours adds one in its ``pyproject.toml``:
 
-    [project.entry-points."multicosim.fixtures"]
-    boat = "boat_testing.fixtures"
+```toml
+[project.entry-points."multicosim.fixtures"]
+boat = "boat_testing.fixtures"
+```
 
 A library should import heavy dependencies inside its fixtures, so that loading it (in every
 pytest session of the environment) costs nothing.

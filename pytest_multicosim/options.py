@@ -1,4 +1,5 @@
-"""The ``--mcs-*`` options, their ini twins, and the validated :class:`Settings` of a run.
+"""The ``--mcs-*`` options, their ini twins, and the validated
+[`Settings`][pytest_multicosim.options.Settings] of a run.
 
 Every option lives in the ``multicosim`` group and has an ini twin of the same name
 (``mcs_fidelity = low,medium`` in ``pytest.ini``); the command line wins over the ini file.
@@ -106,7 +107,7 @@ class Settings:
 
 
 settings_key = pytest.StashKey[Settings]()
-"""Where ``config.stash`` keeps the run's :class:`Settings`."""
+"""Where ``config.stash`` keeps the run's [`Settings`][pytest_multicosim.options.Settings]."""
 
 
 def add_options(parser: pytest.Parser) -> None:

@@ -4,11 +4,11 @@ Installed packages load it through the ``pytest11`` entry point, but it acts onl
 that use its fixtures (``mcs_*`` and the fixture libraries') or the ``fidelity`` marker, or
 for every test when an ``--mcs-*`` option is given: only then does it sweep what killed runs
 left (processes, and containers where Docker is installed), print its header line, record
-traces and add its report section and JUnit properties (:mod:`.activity`). Options live in
-the ``multicosim`` group, each with an ini twin (:mod:`.options`); the fixtures in
-:mod:`.fixtures` and the libraries of the ``multicosim.fixtures`` entry points
-(:mod:`.libraries`) are registered as plugins of their own. Its state lives in
-``config.stash``.
+traces and add its report section and JUnit properties (``activity``). Options live in
+the ``multicosim`` group, each with an ini twin ([`options`][pytest_multicosim.options]); the
+fixtures in [`fixtures`][pytest_multicosim.plugin.fixtures] and the libraries of the
+``multicosim.fixtures`` entry points (``libraries``) are registered as plugins of their own. Its
+state lives in ``config.stash``.
 """
 
 from __future__ import annotations

@@ -1,15 +1,17 @@
 """Fixtures of the PX4 scenario (registered by the multicosim plugin).
 
-``px4_simulation`` is a started :class:`multicosim.px4.PX4Simulation` at the fidelity,
-placement and seed that the options and the ``fidelity`` marker select, stopped when the test
-ends whatever happens::
+``px4_simulation`` is a started [`multicosim.px4.PX4Simulation`][multicosim.px4.PX4Simulation] at
+the fidelity, placement and seed that the options and the ``fidelity`` marker select, stopped when
+the test ends whatever happens:
 
-    @pytest.mark.fidelity("low", "medium")
-    def test_mission(px4_simulation):
-        result = px4_simulation.firmware.send(px4.Configuration([px4.Waypoint(...)]))
-        assert result.completed
+```python
+@pytest.mark.fidelity("low", "medium")
+def test_mission(px4_simulation):
+    result = px4_simulation.firmware.send(px4.Configuration([px4.Waypoint(...)]))
+    assert result.completed
+```
 
-``px4_simulator`` is the unstarted :class:`multicosim.px4.PX4` (add injectors before
+``px4_simulator`` is the unstarted [`multicosim.px4.PX4`][multicosim.px4.PX4] (add injectors before
 starting it); ``px4_world`` (the world configuration) and ``px4_params`` can be overridden
 in a module or conftest. With ``--mcs-placement=docker`` the world and the autopilot run as
 containers of the runtime image (rebuilt first if the source changed); where no Docker

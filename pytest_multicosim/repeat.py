@@ -2,14 +2,15 @@
 
 A test of ours (one using multicosim's fixtures or the ``fidelity`` marker) runs K times, each
 from a clean slate (its fixtures of every scope set up again), and passes only if every run
-gave the same verdict and routed the same samples (:func:`multicosim.trace.fingerprint`). A
-test that does not is failed, naming the first sample that differs: its time, topic, field and
-both values (a component reading the wall clock or an unseeded random source shows up there).
-Real firmware (PX4, ArduPilot) flies on its own threads: its tests must repeat their verdict,
-and where their samples first parted is noted in the JUnit property, not held against them.
-Only the last run's reports reach pytest's reporters; each carries the fingerprint, so the
-JUnit report has the hash (``mcs_trace_hash``). With ``--mcs-repeat-load`` the plugin keeps busy
-processes running meanwhile. The summary says how many tests were proven repeatable.
+gave the same verdict and routed the same samples
+([`multicosim.trace.fingerprint`][multicosim.trace.fingerprint]). A test that does not is failed,
+naming the first sample that differs: its time, topic, field and both values (a component reading
+the wall clock or an unseeded random source shows up there). Real firmware (PX4, ArduPilot) flies on
+its own threads: its tests must repeat their verdict, and where their samples first parted is noted
+in the JUnit property, not held against them. Only the last run's reports reach pytest's reporters;
+each carries the fingerprint, so the JUnit report has the hash (``mcs_trace_hash``). With
+``--mcs-repeat-load`` the plugin keeps busy processes running meanwhile. The summary says how many
+tests were proven repeatable.
 """
 
 from __future__ import annotations
@@ -44,7 +45,7 @@ __all__ = [
 ]
 
 PLUGIN_NAME = "multicosim-repeat"
-"""The name the :class:`Repeater` is registered under."""
+"""The name the ``Repeater`` is registered under."""
 
 HASH_PROPERTY = "mcs_trace_hash"
 """The JUnit property (``user_properties``) with the hash of every sample a test routed."""
@@ -52,7 +53,8 @@ REPEAT_PROPERTY = "mcs_repeat"
 """The JUnit property saying whether a repeated test proved repeatable."""
 
 fingerprint_key = pytest.StashKey[Any]()
-"""Where an item's stash keeps its last run's :class:`multicosim.trace.Fingerprint`."""
+"""Where an item's stash keeps its last run's
+[`multicosim.trace.Fingerprint`][multicosim.trace.Fingerprint]."""
 
 
 @dataclasses.dataclass

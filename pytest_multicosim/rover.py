@@ -1,16 +1,19 @@
 """Fixtures of the rover scenario (registered by the multicosim plugin).
 
-``rover_simulation`` is a started :class:`multicosim.rover.RoverSimulation` at the fidelity,
-placement and seed the options and the ``fidelity`` marker select; it is stopped when the
-test ends, whatever happens::
+``rover_simulation`` is a started
+[`multicosim.rover.RoverSimulation`][multicosim.rover.RoverSimulation] at the fidelity, placement
+and seed the options and the ``fidelity`` marker select; it is stopped when the test ends, whatever
+happens:
 
-    @pytest.mark.fidelity("low", "medium")
-    def test_mission(rover_simulation):
-        trajectory = rover_simulation.controller.send(Mission(speed=3.0))
-        assert trajectory.completed
+```python
+@pytest.mark.fidelity("low", "medium")
+def test_mission(rover_simulation):
+    trajectory = rover_simulation.controller.send(Mission(speed=3.0))
+    assert trajectory.completed
+```
 
-``rover_simulator`` is the unstarted :class:`multicosim.rover.Rover`, for tests that add
-components (an injector between world and controller) before starting it.
+``rover_simulator`` is the unstarted [`multicosim.rover.Rover`][multicosim.rover.Rover], for tests
+that add components (an injector between world and controller) before starting it.
 With ``--mcs-placement=docker`` the world and the controller run as containers of the runtime
 image (rebuilt first if the source changed); where no Docker engine runs the test is skipped
 with the reason (a failure with ``MCS_REQUIRE_DOCKER=1``).

@@ -1,10 +1,10 @@
 """The session's summary of the flights scored as the UAV test competition scores them.
 
-At the end of a session that flew any (the competition's case files, :mod:`.competition`,
+At the end of a session that flew any (the competition's case files, ``competition``,
 or our cases with ``score: competition``), the terminal summary lists each flight's verdict,
 minimum distance, points, simulated and wall time, and how many cases an hour this machine
 flies at each level, beside what the competition's evaluation allows one case:
-:data:`~multicosim.px4.competition.TIMEOUT` seconds of real time. The figures come from the
+[`TIMEOUT`][multicosim.px4.competition.TIMEOUT] seconds of real time. The figures come from the
 tests' properties and pytest's own durations (setup, call and teardown: starting and
 stopping the simulation count): a measurement, never a verdict.
 """
@@ -20,7 +20,7 @@ import pytest
 __all__ = ["PLUGIN_NAME", "Tally"]
 
 PLUGIN_NAME = "multicosim-competition-scores"
-"""The name the session's :class:`Tally` is registered under."""
+"""The name the session's ``Tally`` is registered under."""
 
 
 class Tally:

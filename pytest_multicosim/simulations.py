@@ -1,10 +1,10 @@
 """The simulations a test starts, and the guarantee that each one stops.
 
-:class:`SimulationRegistry` knows every live simulation of the session (the ``atexit`` safety
-net stops what is left); :class:`Simulations`, the ``mcs_simulations`` fixture, is one test's
-view of it; :func:`tracked` lets a fixture library hand out a simulator whose ``start`` is
+``SimulationRegistry`` knows every live simulation of the session (the ``atexit`` safety
+net stops what is left); ``Simulations``, the ``mcs_simulations`` fixture, is one test's
+view of it; ``tracked`` lets a fixture library hand out a simulator whose ``start`` is
 recorded there. The fixture libraries (``pytest_multicosim.rover``, a package of yours) use
-:func:`tracked`; the reports read the view to save what its simulations logged.
+``tracked``; the reports read the view to save what its simulations logged.
 """
 
 from __future__ import annotations
@@ -106,7 +106,7 @@ class Simulations:
 
 
 registry_key = pytest.StashKey[SimulationRegistry]()
-"""Where ``config.stash`` keeps the session's :class:`SimulationRegistry`."""
+"""Where ``config.stash`` keeps the session's ``SimulationRegistry``."""
 view_key = pytest.StashKey[Simulations]()
 """Where an item's stash keeps its ``mcs_simulations`` view (read by the reports)."""
 

@@ -1,17 +1,19 @@
 """ArduPilot in the loop: ArduCopter flies our quadrotor, ArduRover drives our rover.
 
 Real ArduPilot SITL (ArduCopter, ArduRover) uses our MuJoCo worlds as its JSON physics
-backend, in lockstep, and is flown through the same mission API as PX4::
+backend, in lockstep, and is flown through the same mission API as PX4:
 
-    import multicosim.ardupilot as ardupilot
+```python
+import multicosim.ardupilot as ardupilot
 
-    simulator = ardupilot.ArduCopter(fidelity="medium", firmware_dir="../shared/ardupilot-sitl")
-    with simulator.start() as simulation:
-        home = simulation.home
-        result = simulation.firmware.send(
-            ardupilot.Configuration([ardupilot.Waypoint(home.lat + 2e-4, home.lon, 20.0)])
-        )
-    assert result.completed, result.reason
+simulator = ardupilot.ArduCopter(fidelity="medium", firmware_dir="../shared/ardupilot-sitl")
+with simulator.start() as simulation:
+    home = simulation.home
+    result = simulation.firmware.send(
+        ardupilot.Configuration([ardupilot.Waypoint(home.lat + 2e-4, home.lon, 20.0)])
+    )
+assert result.completed, result.reason
+```
 
 ``import multicosim.ardupilot`` loads neither MuJoCo nor pymavlink; they load when a
 simulation starts.

@@ -6,11 +6,11 @@ simulator answers it with one JSON line of the vehicle's state: time, body gyro 
 force (FRD), position and velocity (NED, from home) and attitude. It resends the same packet
 after a second without an answer, and its frame count starts again from 0 when it restarts.
 
-:class:`JsonBridge` is that simulator end for our MuJoCo worlds, as a participant stepped
+``JsonBridge`` is that simulator end for our MuJoCo worlds, as a participant stepped
 right after the world, every physics period: it answers ArduPilot's pending servo packet
-with the world's latest :class:`~multicosim.mavlink.hil.Truth` (stamped with the simulated
+with the world's latest ``Truth`` (stamped with the simulated
 time), waits for the next packet (``lockstep_timeout`` of wall time, ArduPilot's liveness
-checked meanwhile) and publishes its outputs (:class:`ServoOutputs`) for the world's next
+checked meanwhile) and publishes its outputs (``ServoOutputs``) for the world's next
 step. Each packet is answered once: copies ArduPilot resent while the simulation was busy
 elsewhere are dropped (a second answer would be read as the next frame's); a packet repeated
 a second after our answer (the answer was lost) is answered again without advancing; a

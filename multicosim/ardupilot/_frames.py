@@ -7,7 +7,7 @@ for a new frame of that kind, so that ArduPilot's default gains fly it unchanged
 * the quadrotor (PX4's ``none_iris`` airframe): ArduCopter's quad X (``FRAME_CLASS`` 1,
   ``FRAME_TYPE`` 1) has motor 1 front-right counter-clockwise, 2 back-left
   counter-clockwise, 3 front-left clockwise, 4 back-right clockwise: the airframe's rotor
-  order, so output i drives rotor i (:func:`check_quad_x` verifies it). The rotors' thrust
+  order, so output i drives rotor i (``check_quad_x`` verifies it). The rotors' thrust
   is linear in the motor command, so ``MOT_THST_EXPO`` is 0; ``MOT_THST_HOVER`` is the
   airframe's hover throttle.
 * the Ackermann rover: ArduRover's steering on output 1 (1500 us straight, more turns

@@ -1,6 +1,6 @@
 """How the ground station flies ArduPilot: its modes, parameters, mission and start sequence.
 
-The ground station (:mod:`multicosim.mavlink.gcs`) speaks MAVLink's protocols to any autopilot;
+The ground station (``multicosim.mavlink.gcs``) speaks MAVLink's protocols to any autopilot;
 this is what ArduPilot does differently from PX4:
 
 * telemetry is asked for (SET_MESSAGE_INTERVAL): ArduPilot streams nothing unrequested;

@@ -169,7 +169,7 @@ class ArduPilotComponent:
 
     ``vehicle`` is ``"copter"`` or ``"rover"``; ``firmware`` where ArduPilot comes from;
     ``world`` where home is (ArduPilot's ``--home``) and what its physics period is;
-    ``params`` are set at boot, after the frame's (:mod:`._frames`); ``geofence`` bounds
+    ``params`` are set at boot, after the frame's (``_frames``); ``geofence`` bounds
     missions. ArduPilot runs where ``placement`` runs programs (None: a local process; a
     container of its image with ``"docker"``); its bridge and the ground station run in
     this process.
@@ -257,7 +257,7 @@ class ArduPilotComponent:
     def trace_options(self, *, member: bool = False, start: Home | None = None) -> TraceOptions:
         """Its trace options: the MAVLink link decoded, the world's truth and ArduPilot's
         outputs typed, Foxglove channels (``member``, ``start``: as a fleet's vehicle, see
-        :func:`~multicosim.mavlink.trace.mission_trace`)."""
+        ``mission_trace``)."""
         import dataclasses
 
         from ..mavlink.trace import mission_trace
@@ -347,7 +347,8 @@ class ArduPilotSimulation(ScenarioSimulation):
         self.world: Node = simulation.get(world_id)
 
     def boot(self, limit: float = BOOT_LIMIT) -> None:
-        """Run the simulation until ArduPilot has booted (see :func:`boot`)."""
+        """Run the simulation until ArduPilot has booted (see
+        [`boot`][multicosim.ardupilot._simulator.ArduPilotSimulation.boot])."""
         boot(self, self.firmware, limit)
 
     @property
@@ -468,11 +469,12 @@ class ArduCopter(_ArduPilotSimulator):
     """ArduCopter SITL flying our quadrotor (PX4's ``none_iris`` airframe) as its quad X.
 
     ``ardupilot.ArduCopter(world, fidelity="medium", firmware_dir=PATH)``: ``world`` a
-    :class:`~multicosim.physics.WorldConfig` (None: the fidelity's, see ``default_world``),
+    [`WorldConfig`][multicosim.physics.WorldConfig] (None: the fidelity's, see ``default_world``),
     whose timestep must divide ArduPilot's 2.5 ms frame; ``firmware_dir`` ArduPilot SITL's
     directory (``bin/arducopter``, ``params/copter.parm``), or ``image`` (``backend="docker"``)
     or ``firmware=SITL(...)``; ``params`` ArduPilot parameters set at boot; ``seed`` fixes
-    every random source of the world. ``start()`` gives an :class:`ArduPilotSimulation`.
+    every random source of the world. ``start()`` gives an
+    [`ArduPilotSimulation`][multicosim.ardupilot._simulator.ArduPilotSimulation].
     """
 
     vehicle: Vehicle = "copter"
@@ -481,8 +483,8 @@ class ArduCopter(_ArduPilotSimulator):
 class ArduRover(_ArduPilotSimulator):
     """ArduRover SITL driving our Ackermann rover (steering and throttle outputs).
 
-    The same arguments as :class:`ArduCopter`; ``firmware_dir`` needs ``bin/ardurover`` and
-    ``params/rover.parm``.
+    The same arguments as [`ArduCopter`][multicosim.ardupilot._simulator.ArduCopter];
+    ``firmware_dir`` needs ``bin/ardurover`` and ``params/rover.parm``.
     """
 
     vehicle: Vehicle = "rover"

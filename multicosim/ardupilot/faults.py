@@ -1,4 +1,5 @@
-"""Sensor faults and attacks on ArduPilot: :mod:`multicosim.attacks` models as its own faults.
+"""Sensor faults and attacks on ArduPilot: [`multicosim.attacks`][multicosim.attacks] models as its
+own faults.
 
 ArduPilot synthesises its GPS and barometer from the state our world sends, and its SITL
 simulates their faults itself, set by ``SIM_*`` parameters. The attack models map onto those

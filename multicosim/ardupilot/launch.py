@@ -1,7 +1,7 @@
 """Real ArduPilot SITL: where it comes from, and starting it isolated, on our world.
 
-Where ArduPilot comes from is a :class:`SITL`: a directory with ``bin/arducopter``,
-``bin/ardurover`` and ``params/`` (ArduPilot's default parameter files, as its
+Where ArduPilot comes from is a [`SITL`][multicosim.ardupilot.launch.SITL]: a directory with
+``bin/arducopter``, ``bin/ardurover`` and ``params/`` (ArduPilot's default parameter files, as its
 ``Tools/autotest/default_params``), run as a local process, or an image
 (``multicosim images build --ardupilot-dir DIR``) run as a container on the
 simulation's network. Each ArduPilot gets:
@@ -17,7 +17,7 @@ simulation's network. Each ArduPilot gets:
   5501 + 10 N. What ArduPilot still opens on all interfaces (that RC socket and the socket
   it sends servo packets from, both on ephemeral ports) is not answered by anyone but it;
   in a container, nothing of it is reachable beyond the simulation's own network;
-* the parameters a user sets for our frame (:mod:`._frames`) and the simulation's
+* the parameters a user sets for our frame (``_frames``) and the simulation's
   (``params``), in a defaults file beside ArduPilot's own.
 """
 
@@ -373,7 +373,7 @@ class ArduPilotNodes(FirmwareNodes):
 
 
 class ArduPilotLaunch:
-    """ArduPilot for the firmware launcher (:func:`multicosim.placement.firmware.launch`).
+    """ArduPilot for the firmware launcher (``multicosim.placement.firmware.launch``).
 
     Claims an instance (its physics port bound) where ArduPilot shares this machine's ports,
     or instance 0 on a network of its own; starts the JSON bridge in this process; runs

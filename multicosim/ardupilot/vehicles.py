@@ -1,8 +1,8 @@
 """Our MuJoCo vehicles driven by ArduPilot: the world's vehicle plug-ins for its JSON backend.
 
-Each reads ArduPilot's servo outputs (:class:`~._bridge.ServoOutputs`) through its frame
-(:mod:`._frames`) and publishes, every physics period, the vehicle's true state as the
-world's :class:`~multicosim.mavlink.hil.Truth` (NED position from home, velocity, attitude, body
+Each reads ArduPilot's servo outputs (``ServoOutputs``) through its frame
+(``_frames``) and publishes, every physics period, the vehicle's true state as the
+world's ``Truth`` (NED position from home, velocity, attitude, body
 rates and specific force): what ArduPilot's JSON backend needs, and the truth the ground
 station records. ArduPilot synthesises its own sensors (IMU noise, GPS, compass, barometer)
 from that state, with its ``SIM_*`` parameters.

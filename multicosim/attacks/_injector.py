@@ -66,11 +66,11 @@ class InjectorConfig(msgspec.Struct, frozen=True, kw_only=True):
 
     ``vehicle`` and ``sensor`` name the message (``"rover"``: ``position``/``gps``,
     ``magnetometer``, ``imu``, ``wheel_speed``; ``"px4"``: ``gps``, ``mag``, ``baro``,
-    ``imu``; or any vehicle registered with :func:`multicosim.attacks.register`, whose
-    registering ``module`` an injector in another process imports); ``source`` is the raw
-    topic read, ``target`` the topic written; ``period``
-    (s) is how often it steps (the world's publishing period, so readings pass in the
-    instant they are published); ``wire`` is how PX4 payloads travel (``native`` Structs or
+    ``imu``; or any vehicle registered with
+    [`multicosim.attacks.register`][multicosim.attacks.register], whose registering ``module`` an
+    injector in another process imports); ``source`` is the raw topic read, ``target`` the topic
+    written; ``period`` (s) is how often it steps (the world's publishing period, so readings pass
+    in the instant they are published); ``wire`` is how PX4 payloads travel (``native`` Structs or
     packed ``mavlink`` frames). Validated on construction.
     """
 

@@ -1,12 +1,17 @@
-"""Placing an injector in a scenario: :func:`inject`, and what a scenario offers it.
+"""Placing an injector in a scenario: [`inject`][multicosim.attacks._scenarios.inject], and what a
+scenario offers it.
 
-A scenario takes faults by implementing :class:`SimulatesFaults`: the rover and PX4 remap
-the sensor's topic and add an injector (built by :func:`add_injector`) between world and
-firmware; ArduPilot maps the models onto its firmware's own simulated faults::
+A scenario takes faults by implementing
+[`SimulatesFaults`][multicosim.attacks._scenarios.SimulatesFaults]: the rover and PX4 remap the
+sensor's topic and add an injector (built by
+[`add_injector`][multicosim.attacks._scenarios.add_injector]) between world and firmware; ArduPilot
+maps the models onto its firmware's own simulated faults:
 
-    simulator = rover.Rover(fidelity="low")
-    attacks.inject(simulator, "gps", [attacks.Jump(offset=attacks.Local(east=3.0), start=2.0)])
-    simulation = simulator.start()
+```python
+simulator = rover.Rover(fidelity="low")
+attacks.inject(simulator, "gps", [attacks.Jump(offset=attacks.Local(east=3.0), start=2.0)])
+simulation = simulator.start()
+```
 
 The rover's world publishes the sensor on ``<topic>/raw`` instead (``WorldConfig.sensor_topics``)
 and the injector republishes on the topic the controller reads; PX4's autopilot reads

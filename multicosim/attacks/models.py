@@ -2,15 +2,17 @@
 
 Every model is a frozen msgspec Struct (a configuration that travels as JSON to an injector
 process), validated on construction, and active from ``start`` until ``end`` (simulated
-seconds; ``end=None``: to the end of the run). Additive models (:class:`Gaussian`,
-:class:`Bias`, :class:`Drift`, :class:`Jump`, and :class:`Stream`, whose offset another
-component computes) change one quantity of the reading (``on``;
-None: the sensor's default, e.g. the GPS position); a value is a number (the same on every
-axis), a :class:`Local` for a position's axes by name (``Local(north=4.0)``: 4 m north), or
-one number per axis in the quantity's own order (body axes x, y, z; a plain tuple for a
-position is deprecated: its order, east/north/up, is easy to get wrong). :class:`Dropout`
-and :class:`Delay` act on whole messages. Random models draw from the injector's seeded
-generator (``ctx.rng``), so a seed gives the same corrupted readings every time.
+seconds; ``end=None``: to the end of the run). Additive models
+([`Gaussian`][multicosim.attacks.models.Gaussian], [`Bias`][multicosim.attacks.models.Bias],
+[`Drift`][multicosim.attacks.models.Drift], [`Jump`][multicosim.attacks.models.Jump], and
+[`Stream`][multicosim.attacks.models.Stream], whose offset another component computes) change one
+quantity of the reading (``on``; None: the sensor's default, e.g. the GPS position); a value is a
+number (the same on every axis), a [`Local`][multicosim.attacks.models.Local] for a position's axes
+by name (``Local(north=4.0)``: 4 m north), or one number per axis in the quantity's own order (body
+axes x, y, z; a plain tuple for a position is deprecated: its order, east/north/up, is easy to get
+wrong). [`Dropout`][multicosim.attacks.models.Dropout] and
+[`Delay`][multicosim.attacks.models.Delay] act on whole messages. Random models draw from the
+injector's seeded generator (``ctx.rng``), so a seed gives the same corrupted readings every time.
 """
 
 from __future__ import annotations
@@ -54,9 +56,11 @@ class Latest(Protocol):
 class Local(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     """A value per axis of a local position, by name: north, east, up (0 where not given).
 
-    The units are the quantity's (m for a GPS position, m/s for a velocity, ...)::
+    The units are the quantity's (m for a GPS position, m/s for a velocity, ...):
 
-        attacks.Jump(offset=attacks.Local(north=4.0), start=3.0)  # 4 m north from t=3 s
+    ```python
+    attacks.Jump(offset=attacks.Local(north=4.0), start=3.0)  # 4 m north from t=3 s
+    ```
     """
 
     north: float = 0.0
@@ -69,14 +73,15 @@ class Local(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fields=Tru
 
 
 AXES = ("north", "east", "up")
-"""The axes a :class:`Local` names."""
+"""The axes a [`Local`][multicosim.attacks.models.Local] names."""
 
 # A number for every axis, one number per axis, or a local position's axes by name.
 Value = Union[float, tuple[float, ...], Local]  # noqa: UP007 - msgspec reads this at run time
 
 
 class Named(tuple[float, ...]):
-    """Per-axis values that carry their axes' names (from a :class:`Local`)."""
+    """Per-axis values that carry their axes' names (from a
+    [`Local`][multicosim.attacks.models.Local])."""
 
     names: tuple[str, ...] = AXES
 
@@ -267,7 +272,7 @@ def check_models(
     ``quantities`` maps each quantity an additive model may act on (``on``, else
     ``default``) to its axes' names; ``what`` names the sensor in errors. A plain tuple of
     values for a local position's axes is accepted with a DeprecationWarning (a
-    :class:`Local` names them).
+    [`Local`][multicosim.attacks.models.Local] names them).
     """
     if isinstance(models, list):
         models = tuple(models)
@@ -300,8 +305,9 @@ def check_models(
 
 
 def subscribe_streams(ctx: Any, models: Sequence[Model], offsets: Iterable[Offsets]) -> None:
-    """Subscribe ``ctx`` (a StepContext) to the topics of the :class:`Stream` models and
-    hand the subscriptions to ``offsets`` (in a participant's ``setup``)."""
+    """Subscribe ``ctx`` (a StepContext) to the topics of the
+    [`Stream`][multicosim.attacks.models.Stream] models and hand the subscriptions to ``offsets``
+    (in a participant's ``setup``)."""
     streams = {
         m.topic: ctx.subscribe(m.topic, StreamValue) for m in models if isinstance(m, Stream)
     }
@@ -334,8 +340,8 @@ def broadcast(
 class Offsets:
     """The run-time state of the additive models on one quantity (random walks, ...).
 
-    ``streams`` gives the latest value of each :class:`Stream` model's topic (the
-    injector's subscriptions).
+    ``streams`` gives the latest value of each [`Stream`][multicosim.attacks.models.Stream] model's
+    topic (the injector's subscriptions).
     """
 
     def __init__(self, models: Sequence[Additive], axes: tuple[str, ...], quantity: str) -> None:

@@ -1,8 +1,8 @@
 """What the injector can corrupt: each vehicle's sensor messages and their quantities.
 
-A :class:`Sensor` knows one message type: which quantities of it a model can offset
-(their axes and units), how to read the message from a topic payload and write it back,
-and how to apply an offset so that the message stays self-consistent (a GPS offset moves
+A [`Sensor`][multicosim.attacks.sensors.Sensor] knows one message type: which quantities of it a
+model can offset (their axes and units), how to read the message from a topic payload and write it
+back, and how to apply an offset so that the message stays self-consistent (a GPS offset moves
 the local position and latitude/longitude together; a heading offset rotates the measured
 field). A zero offset is never applied: the message object passes through untouched.
 """
@@ -212,5 +212,5 @@ def canonical(vehicle: str, name: str) -> str:
 
 
 def sensor(vehicle: str, name: str) -> Sensor:
-    """The :class:`Sensor` ``name`` (or an alias) of ``vehicle``."""
+    """The [`Sensor`][multicosim.attacks.sensors.Sensor] ``name`` (or an alias) of ``vehicle``."""
     return _registered(vehicle)[canonical(vehicle, name)]

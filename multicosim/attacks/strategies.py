@@ -1,13 +1,15 @@
 """Hypothesis strategies for sensor attacks: models, their timing, whole attack lists.
 
 Every strategy shrinks towards the harmless case (zero noise, zero offset, no model), so a
-failure Hypothesis reports is the smallest attack that still breaks the requirement::
+failure Hypothesis reports is the smallest attack that still breaks the requirement:
 
-    from hypothesis import given
-    from multicosim.attacks import strategies as ast
+```python
+from hypothesis import given
+from multicosim.attacks import strategies as ast
 
-    @given(ast.jumps(offset=(0.0, 30.0), start=(5.0, 20.0)))
-    def test_spoof(mcs_fresh_simulation, jump): ...
+@given(ast.jumps(offset=(0.0, 30.0), start=(5.0, 20.0)))
+def test_spoof(mcs_fresh_simulation, jump): ...
+```
 
 Bounds are checked when the strategy is built (ConfigurationError naming the argument).
 """
@@ -55,7 +57,7 @@ def offsets(
 
     The direction is uniform (on the circle or sphere for 2 or 3 axes); one axis gives a
     signed number. ``axes`` given by name (a quantity's) for a local position gives a
-    :class:`~multicosim.attacks.Local`.
+    [`Local`][multicosim.attacks.Local].
     """
     if not isinstance(axes, int) and sorted(axes) == sorted(AXES):
         return _vectors(magnitude, 3).map(lambda v: Local(**dict(zip(AXES, v, strict=True))))

@@ -345,8 +345,8 @@ class Wrapper(Protocol):
 
 
 def find_scheduler(simulation: object) -> Scheduler:
-    """The scheduler of ``simulation``: a Scheduler itself, a :class:`Clocked` simulation's, or
-    that of the simulation a :class:`Wrapper` wraps."""
+    """The scheduler of ``simulation``: a Scheduler itself, a ``Clocked`` simulation's, or
+    that of the simulation a ``Wrapper`` wraps."""
     seen: set[int] = set()
     while id(simulation) not in seen:
         seen.add(id(simulation))

@@ -1,11 +1,13 @@
 """Optional dependencies and lazy exports: heavy modules load on use, never on import.
 
-:func:`require` imports an optional dependency or raises an error naming the extra to
-install; :func:`lazy_exports` gives a package the ``__getattr__`` / ``__dir__`` pair that
+``require`` imports an optional dependency or raises an error naming the extra to
+install; ``lazy_exports`` gives a package the ``__getattr__`` / ``__dir__`` pair that
 loads each exported name from its module the first time it is used (so that
-``import multicosim`` imports neither pyzmq, MuJoCo, the Docker SDK nor mcap)::
+``import multicosim`` imports neither pyzmq, MuJoCo, the Docker SDK nor mcap):
 
-    __getattr__, __dir__ = lazy_exports(__name__, {"World": ".world"}, __all__)
+```python
+__getattr__, __dir__ = lazy_exports(__name__, {"World": ".world"}, __all__)
+```
 """
 
 from __future__ import annotations

@@ -1,28 +1,30 @@
 """Exceptions raised by multicosim.
 
-Every error derives from :class:`MulticosimError`, so ``except mcs.MulticosimError`` catches
-anything the harness raises on its own account::
+Every error derives from [`MulticosimError`][multicosim.core.errors.MulticosimError], so ``except
+mcs.MulticosimError`` catches anything the harness raises on its own account:
 
-    MulticosimError
-    ├── ConfigurationError        invalid input, raised before anything starts
-    │   ├── MessageTypeError      a message of the wrong type for a node or topic
-    │   └── FormulaError          an STL formula that does not parse (names line and column)
-    ├── DependencyMissingError    an optional dependency is not installed (names the extra)
-    ├── PlacementUnavailableError a placement cannot run here (no engine, no cluster)
-    │   └── EngineUnavailableError  the Docker engine cannot be reached
-    ├── NodeError                 a running component misbehaved (carries name, exit code, log)
-    │   ├── NodeStartError        it did not become ready
-    │   │   └── ImageMissingError   its image is not present locally (never pulled)
-    │   ├── NodeTimeoutError      it did not answer in time
-    │   └── NodeCrashedError      it exited while it was needed
-    ├── RemoteError               a component raised while handling a message
-    ├── TransportError            a message could not be carried or decoded
-    ├── SimulationStopped         the simulation was stopped (component side)
-    ├── PhysicsDivergedError      MuJoCo's integration diverged under this configuration
-    ├── RequirementViolation      a requirement does not hold (also an AssertionError) [1]
-    ├── TraceError                a trace could not be written or read
-    ├── ComponentCheckError       multicosim.testing.check_component found a fault [1]
-    └── CampaignInterrupted       Ctrl-C stopped a campaign (also a KeyboardInterrupt) [1]
+```text
+MulticosimError
+├── ConfigurationError        invalid input, raised before anything starts
+│   ├── MessageTypeError      a message of the wrong type for a node or topic
+│   └── FormulaError          an STL formula that does not parse (names line and column)
+├── DependencyMissingError    an optional dependency is not installed (names the extra)
+├── PlacementUnavailableError a placement cannot run here (no engine, no cluster)
+│   └── EngineUnavailableError  the Docker engine cannot be reached
+├── NodeError                 a running component misbehaved (carries name, exit code, log)
+│   ├── NodeStartError        it did not become ready
+│   │   └── ImageMissingError   its image is not present locally (never pulled)
+│   ├── NodeTimeoutError      it did not answer in time
+│   └── NodeCrashedError      it exited while it was needed
+├── RemoteError               a component raised while handling a message
+├── TransportError            a message could not be carried or decoded
+├── SimulationStopped         the simulation was stopped (component side)
+├── PhysicsDivergedError      MuJoCo's integration diverged under this configuration
+├── RequirementViolation      a requirement does not hold (also an AssertionError) [1]
+├── TraceError                a trace could not be written or read
+├── ComponentCheckError       multicosim.testing.check_component found a fault [1]
+└── CampaignInterrupted       Ctrl-C stopped a campaign (also a KeyboardInterrupt) [1]
+```
 
 [1] defined beside what it carries (``multicosim.search.requirements``,
 ``multicosim.local.check``, ``multicosim.search.campaign``); ``multicosim`` exports them all.
@@ -30,7 +32,7 @@ anything the harness raises on its own account::
 ``Simulation.stop`` reports several failures at once as an ``ExceptionGroup`` of these.
 
 Exceptions of the libraries underneath are turned into these in one place,
-:func:`translate`: ZeroMQ's into ``TransportError``, the Docker SDK's into
+``translate``: ZeroMQ's into ``TransportError``, the Docker SDK's into
 ``EngineUnavailableError`` (or ``ImageMissingError``), rtamt's parse errors into
 ``FormulaError``. Each classic base (``ValueError``, ``ImportError``, ``AssertionError``,
 ``KeyboardInterrupt``) is kept where code outside multicosim relies on it.

@@ -1,5 +1,6 @@
 """What a run's models are: its fidelity level, the one list of levels that every scenario,
-search and option accepts (where components run is a placement: :mod:`multicosim.placement`)."""
+search and option accepts (where components run is a placement:
+[`multicosim.placement`][multicosim.placement])."""
 
 from __future__ import annotations
 

@@ -1,6 +1,7 @@
 """Reading a file's fields with errors that name the file, the field, the value and what is
-allowed: the base of the readers of QGroundControl plans (:mod:`multicosim.mavlink.plan`)
-and of the UAV test competition's cases (:mod:`multicosim.px4.competition`).
+allowed: the base of the readers of QGroundControl plans (``multicosim.mavlink.plan``)
+and of the UAV test competition's cases
+([`multicosim.px4.competition`][multicosim.px4.competition]).
 """
 
 from __future__ import annotations

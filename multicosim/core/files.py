@@ -1,7 +1,7 @@
 """Writing files whole or not at all.
 
 A file written in place and interrupted (a full disk, a killed process) is left truncated,
-and a truncated trace or log passes for a real one until someone reads it. :func:`replacing`
+and a truncated trace or log passes for a real one until someone reads it. ``replacing``
 writes a temporary file beside the target and renames it over the target once complete;
 on any failure the temporary file is removed and the target is left as it was. Used for the
 artifacts of failing tests: traces, layouts, MAVLink logs, plots and copied logs.

@@ -2,22 +2,24 @@
 
 **The convention of multicosim's public API.** A local position is metres **north, east,
 up** of home (the vehicle's start), always passed and returned by name (``north=``,
-``east=``, ``up=``; :class:`NorthEast`, ``FlightSample.north``/``east``/``up``), so
-that a wrong order cannot pass silently; a yaw (heading) is in degrees clockwise from north.
-Attack offsets on positions are given the same way (``multicosim.attacks.Local``). Other
-orders appear only where something outside dictates them, and there by name too: MAVLink's
-north-east-down (``FlightSample.x/y/z``, PX4's and ArduPilot's messages), MuJoCo's and
-Foxglove's east-north-up (the worlds' frames, :func:`local_to_geodetic`).
+``east=``, ``up=``; [`NorthEast`][multicosim.core.geo.NorthEast],
+``FlightSample.north``/``east``/``up``), so that a wrong order cannot pass silently; a yaw (heading)
+is in degrees clockwise from north. Attack offsets on positions are given the same way
+(``multicosim.attacks.Local``). Other orders appear only where something outside dictates them, and
+there by name too: MAVLink's north-east-down (``FlightSample.x/y/z``, PX4's and ArduPilot's
+messages), MuJoCo's and Foxglove's east-north-up (the worlds' frames,
+[`local_to_geodetic`][multicosim.core.geo.local_to_geodetic]).
 
 The local frame is PX4's (``map_projection``): the azimuthal equidistant projection on a
 spherical Earth, so a GPS fix built by a world agrees with what PX4 (and our autopilot)
 compute from it. Worlds, autopilots, attack models and tests all project with
-:class:`LocalProjection`; the ENU helpers are the same projection with axes swapped.
+[`LocalProjection`][multicosim.core.geo.LocalProjection]; the ENU helpers are the same projection
+with axes swapped.
 
 Attitudes are unit quaternions ``(w, x, y, z)`` rotating body axes into the local frame.
 Two conventions meet here: robotics' (MuJoCo, Foxglove, the rover: body forward-left-up in
 east-north-up) and aerospace's (PX4, ArduPilot: forward-right-down in north-east-down);
-:func:`swap_attitude_frames` converts between them.
+[`swap_attitude_frames`][multicosim.core.geo.swap_attitude_frames] converts between them.
 
 Scalar math only: this runs in the worlds' and the estimator's hot loops.
 """

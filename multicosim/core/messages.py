@@ -43,10 +43,12 @@ else:
 class Message(_MessageBase, frozen=True):
     """Base for message types: a frozen msgspec Struct.
 
-    Subclass it and annotate fields::
+    Subclass it and annotate fields:
 
-        class Mission(mcs.Message):
-            speed: float
+    ```python
+    class Mission(mcs.Message):
+        speed: float
+    ```
 
     Messages are immutable because one message object may reach several in-process
     subscribers.

@@ -1,10 +1,11 @@
 """Signals: a trajectory as columns over strictly increasing times.
 
-Requirements evaluate them (:mod:`multicosim.search.requirements`) and traces record them
-(:mod:`multicosim.trace`). A trajectory is a mapping of signal name to values plus ``times``
-(or a ``"time"`` entry), a sequence of msgspec Structs (or dataclasses, or mappings) with a
-``time`` field, whose numeric fields become signals (a rover ``Trajectory`` is one), or a
-NumPy structured array with a ``time`` field (an FMU's result, as FMPy gives it).
+Requirements evaluate them ([`multicosim.search.requirements`][multicosim.search.requirements]) and
+traces record them ([`multicosim.trace`][multicosim.trace]). A trajectory is a mapping of signal
+name to values plus ``times`` (or a ``"time"`` entry), a sequence of msgspec Structs (or
+dataclasses, or mappings) with a ``time`` field, whose numeric fields become signals (a rover
+``Trajectory`` is one), or a NumPy structured array with a ``time`` field (an FMU's result, as FMPy
+gives it).
 """
 
 from __future__ import annotations

@@ -7,9 +7,9 @@ Who may send them: a simulation gives each component a secret token (``MCS_TOKEN
 random bits). A component's socket to the coordinator uses it as its ZeroMQ routing
 identity, and a firmware answers only calls whose identity is its token (the host's socket
 uses it too). A frame from any other identity is dropped with a warning naming the peer
-(:class:`Drops`), so a process that does not know the token can neither join a run, nor
+(``Drops``), so a process that does not know the token can neither join a run, nor
 inject messages, nor disturb it. Connections that do not speak ZeroMQ at all are refused by
-ZeroMQ before any frame is read; :class:`HandshakeFailures` logs them.
+ZeroMQ before any frame is read; ``HandshakeFailures`` logs them.
 """
 
 from __future__ import annotations
@@ -143,7 +143,7 @@ def receive(socket: zmq.Socket[Any]) -> tuple[zmq.Frame, list[bytes]]:
     """One message from a ROUTER: its routing-identity frame and the frames that follow.
 
     The identity comes as a ``zmq.Frame`` (it carries the peer's address, see
-    :func:`describe_peer`); a well-formed message has exactly one frame after it.
+    ``describe_peer``); a well-formed message has exactly one frame after it.
     """
     import zmq
 

@@ -1,8 +1,8 @@
 """ContainerComponent, and how any component's container is created, started and cleaned up.
 
 A container runs as a non-root user, without capabilities, within memory and process limits
-(:class:`ContainerLimits`), on its simulation's network only; a container that fails to
-start is removed before the error propagates.
+([`ContainerLimits`][multicosim.docker._component.ContainerLimits]), on its simulation's network
+only; a container that fails to start is removed before the error propagates.
 """
 
 from __future__ import annotations

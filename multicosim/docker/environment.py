@@ -1,7 +1,7 @@
 """ContainerEnvironment: what a ContainerSimulator hands the components it starts.
 
 Programs inside the containers reach the host's lockstep coordinator at the simulation
-network's gateway address. Public because :mod:`multicosim.mavlink` recognises it (by this
+network's gateway address. Public because ``multicosim.mavlink`` recognises it (by this
 module's name, without importing the Docker SDK) to start real firmware in a container.
 """
 

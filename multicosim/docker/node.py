@@ -2,7 +2,7 @@
 
 Every container runs with an init process (so it stops at once on SIGTERM), carries the run's
 labels (so a sweep can remove it if its host dies) and is removed when its node stops.
-Public because :mod:`multicosim.mavlink` recognises a firmware's container (by this module's
+Public because ``multicosim.mavlink`` recognises a firmware's container (by this module's
 name, without importing the Docker SDK) so that a simulation signals it with the others.
 """
 

@@ -1,19 +1,24 @@
 """The F-16 of AeroBench with its ground collision avoidance (GCAS) autopilot, as a component.
 
 AeroBench (AeroBenchVVPython, GPL-3.0) is not part of multicosim: it is loaded from the
-directory its user names (:class:`AeroBench`, or ``MCS_AEROBENCH_DIR``), never copied::
+directory its user names ([`AeroBench`][multicosim.f16.AeroBench], or ``MCS_AEROBENCH_DIR``), never
+copied:
 
-    import multicosim.f16 as f16
+```python
+import multicosim.f16 as f16
 
-    aerobench = f16.AeroBench("AeroBenchVVPython")
-    flight = f16.F16(fidelity="medium", aerobench=aerobench,
-                     initial=f16.InitialState(roll=0.8, pitch=-1.2)).fly()
-    flight.lowest.altitude                  # ft
+aerobench = f16.AeroBench("AeroBenchVVPython")
+flight = f16.F16(fidelity="medium", aerobench=aerobench,
+                 initial=f16.InitialState(roll=0.8, pitch=-1.2)).fly()
+flight.lowest.altitude                  # ft
+```
 
-* :class:`F16` is the scenario (one flight at a fidelity, in a placement), :class:`Aircraft`
-  the component (the F-16 participant, :data:`PROGRAM`, publishing :class:`F16State` on
-  :data:`STATE_TOPIC` every step), :data:`FIDELITY_KNOBS` the levels as AeroBench's knobs;
-* :mod:`multicosim.f16.arch` is the ARCH-COMP falsification benchmark "F16".
+* [`F16`][multicosim.f16.F16] is the scenario (one flight at a fidelity, in a placement),
+  [`Aircraft`][multicosim.f16.Aircraft] the component (the F-16 participant,
+  [`PROGRAM`][multicosim.f16.PROGRAM], publishing [`F16State`][multicosim.f16.F16State] on
+  [`STATE_TOPIC`][multicosim.f16.STATE_TOPIC] every step),
+  [`FIDELITY_KNOBS`][multicosim.f16.FIDELITY_KNOBS] the levels as AeroBench's knobs;
+* [`multicosim.f16.arch`][multicosim.f16.arch] is the ARCH-COMP falsification benchmark "F16".
 
 See docs/how-to/aerobench.md.
 """

@@ -1,4 +1,5 @@
-"""The F-16 as a component (:class:`Aircraft`) and the node it starts (:class:`AircraftNode`).
+"""The F-16 as a component ([`Aircraft`][multicosim.f16._component.Aircraft]) and the node it starts
+([`AircraftNode`][multicosim.f16._component.AircraftNode]).
 
 The component runs the participant where its placement says (this process, a local process,
 a container with AeroBench's directory mounted read-only at the same path); the node keeps
@@ -36,7 +37,7 @@ FEET = 0.3048
 @dataclasses.dataclass(frozen=True)
 class Aircraft:
     """The F-16 and its GCAS autopilot as a component: flies ``config`` where ``placement``
-    says (a registered name or a :class:`~multicosim.placement.Placement`).
+    says (a registered name or a [`Placement`][multicosim.placement.Placement]).
 
     In a container, AeroBench's code directory is mounted read-only at the same path, so that
     the configuration holds there as it does here.
@@ -102,8 +103,10 @@ class Aircraft:
 class AircraftNode:
     """A flying F-16: the node where it runs and the states it published.
 
-    :meth:`flight` gives them as a :class:`Flight`; :meth:`trace_options` tells a trace
-    recorder its channels. ``node`` is the underlying in-process, process or container node.
+    [`flight`][multicosim.f16._component.AircraftNode.flight] gives them as a
+    [`Flight`][multicosim.f16._component.Flight];
+    [`trace_options`][multicosim.f16._component.AircraftNode.trace_options] tells a trace recorder
+    its channels. ``node`` is the underlying in-process, process or container node.
     """
 
     def __init__(

@@ -107,10 +107,10 @@ class F16Config(Message):
     knobs, the flight's ``duration`` (s), the GCAS autopilot's initial mode and the topic
     its state is published on.
 
-    ``directory`` is the directory that holds ``aerobench/`` (:attr:`AeroBench.code`).
-    ``gcas_mode`` is where the GCAS autopilot starts: ``"roll"`` (AeroBench's GCAS example
-    and the ARCH-COMP benchmark: the recovery starts at once), or ``"standby"`` (it engages
-    only once the nose is low below its 1000 ft flight deck).
+    ``directory`` is the directory that holds ``aerobench/``
+    ([`AeroBench.code`][multicosim.f16.AeroBench.code]). ``gcas_mode`` is where the GCAS autopilot
+    starts: ``"roll"`` (AeroBench's GCAS example and the ARCH-COMP benchmark: the recovery starts at
+    once), or ``"standby"`` (it engages only once the nose is low below its 1000 ft flight deck).
 
     Raises:
         ConfigurationError: naming the field with a value outside what is allowed.

@@ -134,8 +134,9 @@ class InitialState(Message):
 class F16State(Message):
     """The F-16's state at ``time`` (simulated s), as it publishes it every step.
 
-    The fields are AeroBench's state variables (see :class:`InitialState`) and ``mode``,
-    the GCAS autopilot's mode then.
+    The fields are AeroBench's state variables (see
+    [`InitialState`][multicosim.f16._messages.InitialState]) and ``mode``, the GCAS autopilot's mode
+    then.
     """
 
     time: float

@@ -35,8 +35,9 @@ PROGRAM = "multicosim.f16:aircraft"
 class F16Participant:
     """The F-16 with its GCAS autopilot, one AeroBench ``step`` per step of the clock.
 
-    Publishes an :class:`F16State` on ``config.topic`` at every step, from the initial state
-    at time 0 until ``config.duration``; it publishes nothing after that.
+    Publishes an [`F16State`][multicosim.f16._participant.F16State] on ``config.topic`` at every
+    step, from the initial state at time 0 until ``config.duration``; it publishes nothing after
+    that.
 
     Raises:
         ConfigurationError: where ``config.directory`` is not AeroBench's (on construction,

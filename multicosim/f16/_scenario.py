@@ -1,17 +1,17 @@
 """The F-16 scenario as a Simulator: one flight from given initial conditions, at a fidelity.
 
-::
+```python
+import multicosim.f16 as f16
 
-    import multicosim.f16 as f16
+scenario = f16.F16(fidelity="medium", aerobench=f16.AeroBench("AeroBenchVVPython"),
+                   initial=f16.InitialState(roll=0.8, pitch=-1.2))
+with scenario.start() as simulation:
+    flight = simulation.fly()          # 15 s of flight, one state per 1/30 s
+flight.lowest.altitude
+```
 
-    scenario = f16.F16(fidelity="medium", aerobench=f16.AeroBench("AeroBenchVVPython"),
-                       initial=f16.InitialState(roll=0.8, pitch=-1.2))
-    with scenario.start() as simulation:
-        flight = simulation.fly()          # 15 s of flight, one state per 1/30 s
-    flight.lowest.altitude
-
-Fidelity picks AeroBench's knobs (:data:`FIDELITY_KNOBS`), the placement where the F-16
-flies (default: this process at low fidelity, a local process above; ``"docker"``: a
+Fidelity picks AeroBench's knobs ([`FIDELITY_KNOBS`][multicosim.f16.FIDELITY_KNOBS]), the placement
+where the F-16 flies (default: this process at low fidelity, a local process above; ``"docker"``: a
 container of the runtime image with AeroBench mounted read-only). The participant is the same
 program everywhere, so a flight is the same, sample for sample, in every placement.
 """
@@ -37,7 +37,8 @@ AIRCRAFT_NAME = "f16"
 
 
 class F16Simulation(ScenarioSimulation):
-    """A running F-16 scenario: :meth:`fly` flies it to the end and returns the flight."""
+    """A running F-16 scenario: [`fly`][multicosim.f16._scenario.F16Simulation.fly] flies it to the
+    end and returns the flight."""
 
     def __init__(
         self,
@@ -82,14 +83,16 @@ class F16Simulation(ScenarioSimulation):
 class F16(Scenario[F16Simulation]):
     """The F-16 scenario Simulator: AeroBench's F-16 with its GCAS autopilot, one flight.
 
-    ``fidelity`` picks AeroBench's knobs (see :data:`FIDELITY_KNOBS`; ``model``,
-    ``integrator`` and ``step`` override the level's own); ``placement`` where the F-16
+    ``fidelity`` picks AeroBench's knobs (see [`FIDELITY_KNOBS`][multicosim.f16.FIDELITY_KNOBS];
+    ``model``, ``integrator`` and ``step`` override the level's own); ``placement`` where the F-16
     flies (``"in-process"``, ``"process"``, ``"docker"``, ...; None: the fidelity's default);
     ``seed`` fixes every random source (AeroBench has none: a flight depends on its initial
-    state and knobs alone). ``aerobench`` is where AeroBench is (an :class:`AeroBench`, a
-    path, or None for ``MCS_AEROBENCH_DIR``); ``initial`` the initial state (default:
-    :class:`InitialState`'s); ``duration`` the flight's length in seconds; ``gcas_mode``
-    the GCAS autopilot's initial mode. Everything is checked here, before anything starts.
+    state and knobs alone). ``aerobench`` is where AeroBench is (an
+    [`AeroBench`][multicosim.f16._scenario.AeroBench], a path, or None for ``MCS_AEROBENCH_DIR``);
+    ``initial`` the initial state (default:
+    [`InitialState`][multicosim.f16._scenario.InitialState]'s); ``duration`` the flight's length in
+    seconds; ``gcas_mode`` the GCAS autopilot's initial mode. Everything is checked here, before
+    anything starts.
 
     Raises:
         ConfigurationError: naming the field with an invalid value.

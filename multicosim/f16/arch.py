@@ -8,13 +8,15 @@ As the ARCH-COMP falsification reports define it (from AeroBench, Heidlauf et al
 
 the GCAS autopilot starts its recovery at once (roll wings level, then pull up); the
 requirement is that the altitude stays above 0 for the 15 s of the flight,
-``always[0,15] (altitude > 0)``, and a search may run 300 simulations::
+``always[0,15] (altitude > 0)``, and a search may run 300 simulations:
 
-    from multicosim.f16 import arch
+```python
+from multicosim.f16 import arch
 
-    benchmark = arch.Benchmark(aerobench="AeroBenchVVPython")
-    result = benchmark.falsify(levels=("low", "medium", "high"))
-    result.simulations, result.lowest       # what the search ran, its least robust flight
+benchmark = arch.Benchmark(aerobench="AeroBenchVVPython")
+result = benchmark.falsify(levels=("low", "medium", "high"))
+result.simulations, result.lowest       # what the search ran, its least robust flight
+```
 
 ``altitude`` flies the same problem from another altitude (lower: a falsifiable variant).
 """
@@ -61,7 +63,7 @@ SPACE: dict[str, tuple[float, float]] = {
 class Benchmark:
     """F16 as a falsification problem: ``benchmark(sample, fidelity, seed)`` flies a sample.
 
-    ``aerobench`` is where AeroBench is (an :class:`~multicosim.f16.AeroBench`, a path, or
+    ``aerobench`` is where AeroBench is (an [`AeroBench`][multicosim.f16.AeroBench], a path, or
     None for ``MCS_AEROBENCH_DIR``); ``altitude`` the initial altitude (ARCH-COMP's 4040 ft
     by default); ``placement`` where each flight runs (None: the fidelity's default).
     Everything is checked here.
@@ -86,7 +88,7 @@ class Benchmark:
 
     @property
     def requirement(self) -> Requirement:
-        """The requirement as an STL :class:`~multicosim.search.requirements.Requirement`."""
+        """The requirement as an STL [`Requirement`][multicosim.search.requirements.Requirement]."""
         from ..search.requirements import Requirement
 
         return Requirement(self.formula)
@@ -135,7 +137,8 @@ class Benchmark:
         progress: bool | None = None,
     ) -> FalsificationResult:
         """Search the inputs for a flight into the ground: searched at ``levels[0]``, each
-        violation confirmed at the levels after it (see :func:`multicosim.search.falsify.falsify`).
+        violation confirmed at the levels after it (see
+        [`multicosim.search.falsify.falsify`][multicosim.search.falsify.falsify]).
         """
         from ..search.falsify import falsify
 

@@ -1,22 +1,25 @@
 """Several vehicles in one world, each with the autopilot chosen for it, on one clock.
 
-::
+```python
+from multicosim import fleet, px4
+from multicosim.physics import Pose
 
-    from multicosim import fleet, px4
-    from multicosim.physics import Pose
+simulator = fleet.Fleet(
+    {"alpha": fleet.PX4Vehicle(), "bravo": fleet.PX4Vehicle(start=Pose(north=40.0))},
+    fidelity="medium",
+)
+with simulator.start() as simulation:
+    result = simulation.fly({"alpha": mission_a, "bravo": mission_b})
+result.encounter.min_separation()
+```
 
-    simulator = fleet.Fleet(
-        {"alpha": fleet.PX4Vehicle(), "bravo": fleet.PX4Vehicle(start=Pose(north=40.0))},
-        fidelity="medium",
-    )
-    with simulator.start() as simulation:
-        result = simulation.fly({"alpha": mission_a, "bravo": mission_b})
-    result.encounter.min_separation()
-
-* :mod:`.scenario`: :class:`Fleet`, :class:`PX4Vehicle`, :class:`FleetSimulation`;
-* :mod:`.results`: :class:`FleetResult`, :class:`Encounter` (separation, closest approach,
-  losses of well clear, collisions between vehicles);
-* :mod:`.monitor`: the participant that measures every pair; :mod:`.world`: the world of a
+* [`scenario`][multicosim.f16.arch.Benchmark.scenario]: [`Fleet`][multicosim.fleet.Fleet],
+  [`PX4Vehicle`][multicosim.fleet.PX4Vehicle],
+  [`FleetSimulation`][multicosim.fleet.FleetSimulation];
+* ``results``: [`FleetResult`][multicosim.fleet.FleetResult],
+  [`Encounter`][multicosim.fleet.Encounter] (separation, closest approach, losses of well clear,
+  collisions between vehicles);
+* ``monitor``: the participant that measures every pair; ``world``: the world of a
   fleet at medium and high fidelity.
 """
 

@@ -1,7 +1,7 @@
 """The encounter monitor: a participant beside the vehicles that measures every pair.
 
-It reads each vehicle's ground truth (:class:`~multicosim.mavlink.hil.Truth`) every period,
-takes a :class:`~multicosim.physics.encounter.PairSample` of every pair (published on
+It reads each vehicle's ground truth (``Truth``) every period,
+takes a [`PairSample`][multicosim.physics.encounter.PairSample] of every pair (published on
 ``mcs/encounter/<a>/<b>``, for traces), and records
 collisions: from MuJoCo's contacts where the world reports them (two quadrotors at medium and
 high fidelity), else analytically, when two bodies' spheres come to touch between two samples

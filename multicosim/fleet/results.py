@@ -66,7 +66,8 @@ class LossOfWellClear(msgspec.Struct, frozen=True):
 class Encounter(msgspec.Struct, frozen=True, kw_only=True):
     """The fleet's pairs over the flight: per pair (``alpha-bravo``) its samples, closest
     approach and losses of well clear, and the collisions; ``well_clear`` names the volume
-    judged. :meth:`signals` gives them as a requirement reads them."""
+    judged. [`signals`][multicosim.fleet.results.Encounter.signals] gives them as a requirement
+    reads them."""
 
     well_clear: str
     pairs: dict[str, list[PairSample]]
@@ -108,8 +109,8 @@ class Encounter(msgspec.Struct, frozen=True, kw_only=True):
 
 
 class FleetResult(msgspec.Struct, frozen=True, kw_only=True):
-    """Each vehicle's :class:`~multicosim.mavlink.mission.MissionResult` by name, and the
-    :class:`Encounter`."""
+    """Each vehicle's [`MissionResult`][multicosim.mavlink.mission.MissionResult] by name, and the
+    [`Encounter`][multicosim.fleet.results.Encounter]."""
 
     results: dict[str, MissionResult]
     encounter: Encounter

@@ -187,7 +187,7 @@ class FleetSimulation(ScenarioSimulation):
         return FleetResult(results=flights.results, encounter=self._monitor.encounter())
 
     def encounter(self) -> Any:
-        """The encounter measured so far (:class:`~multicosim.fleet.Encounter`)."""
+        """The encounter measured so far ([`Encounter`][multicosim.fleet.Encounter])."""
         return self._monitor.encounter()
 
     def trace_options(self) -> TraceOptions:
@@ -218,12 +218,12 @@ class Fleet(Scenario[FleetSimulation]):
     """Several vehicles in one world at ``fidelity``, each flown by the autopilot chosen.
 
     ``vehicles`` names each vehicle (letters, digits, ``_``, ``-``) and says what it is and
-    where it starts (a :class:`PX4Vehicle` or an :class:`ArduPilotVehicle`); their topics
-    (and trace channels) are under their names. ``world`` is the world's configuration
-    (None: the fidelity's; with ArduPilot, ArduPilot's), ``well_clear`` the volume the
-    encounter judges (a :class:`~multicosim.physics.WellClear` or a preset's name:
-    ``"NMAC"``, ``"DO-365"``, ``"ASTM F3442"``). ``placement``, ``seed``, ``realtime``
-    and ``run_dir`` are every scenario's.
+    where it starts (a [`PX4Vehicle`][multicosim.fleet.scenario.PX4Vehicle] or an
+    [`ArduPilotVehicle`][multicosim.fleet.scenario.ArduPilotVehicle]); their topics (and trace
+    channels) are under their names. ``world`` is the world's configuration (None: the fidelity's;
+    with ArduPilot, ArduPilot's), ``well_clear`` the volume the encounter judges (a
+    [`WellClear`][multicosim.physics.WellClear] or a preset's name: ``"NMAC"``, ``"DO-365"``,
+    ``"ASTM F3442"``). ``placement``, ``seed``, ``realtime`` and ``run_dir`` are every scenario's.
     """
 
     def __init__(
@@ -348,7 +348,8 @@ class Fleet(Scenario[FleetSimulation]):
         self, sensor: str, models: Sequence[Model], *, name: str | None = None
     ) -> InjectorComponent:
         """Put an injector with ``models`` on one vehicle's sensor, named
-        ``"<vehicle>/<sensor>"`` (``"bravo/gps"``; see :func:`multicosim.attacks.inject`).
+        ``"<vehicle>/<sensor>"`` (``"bravo/gps"``; see
+        [`multicosim.attacks.inject`][multicosim.attacks.inject]).
 
         That vehicle's autopilot (built-in or real PX4) reads the sensor from
         ``<topic>/attacked``, which the injector fills from the world's topic; the injector

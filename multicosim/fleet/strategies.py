@@ -4,15 +4,17 @@ An encounter is drawn by what a test cares about, its kind, the closest approach
 to it, and built from those: so every generated encounter is one by construction, not a pair of
 random missions that mostly never meet. The ownship ``alpha`` flies north; the intruder
 ``bravo`` flies its own leg; both legs start together (each vehicle climbs first, where it
-stands) and last twice the time to the closest approach::
+stands) and last twice the time to the closest approach:
 
-    from hypothesis import given
-    from multicosim.fleet import strategies as fleetst
+```python
+from hypothesis import given
+from multicosim.fleet import strategies as fleetst
 
-    @given(fleetst.encounters(kinds=("crossing",), closest=(0.0, 10.0)))
-    def test_separation(encounter):
-        with fleet.Fleet(encounter.vehicles(), fidelity="low").start() as simulation:
-            result = simulation.fly(encounter.missions())
+@given(fleetst.encounters(kinds=("crossing",), closest=(0.0, 10.0)))
+def test_separation(encounter):
+    with fleet.Fleet(encounter.vehicles(), fidelity="low").start() as simulation:
+        result = simulation.fly(encounter.missions())
+```
 
 Kinds (the geometry of the planned legs at constant speed, as ICAO's and RTCA's encounter
 models name them): ``head-on`` (tracks 180 degrees apart), ``crossing`` (30 to 150 degrees),
@@ -42,7 +44,7 @@ __all__ = ["KINDS", "EncounterKind", "EncounterPlan", "encounters"]
 
 EncounterKind = Literal["head-on", "crossing", "overtaking", "vertical"]
 KINDS: tuple[EncounterKind, ...] = ("head-on", "crossing", "overtaking", "vertical")
-"""Every kind of encounter :func:`encounters` draws."""
+"""Every kind of encounter [`encounters`][multicosim.fleet.strategies.encounters] draws."""
 
 OWNSHIP, INTRUDER = "alpha", "bravo"
 

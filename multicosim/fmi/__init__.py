@@ -1,26 +1,26 @@
 """FMUs as components: any FMI 2.0 or 3.0 model beside firmware, on one clock, in pytest.
 
-::
+```python
+from multicosim import fmi
 
-    from multicosim import fmi
+result = fmi.simulate("BouncingBall.fmu", stop_time=3.0)   # what fmpy.simulate_fmu returns
 
-    result = fmi.simulate("BouncingBall.fmu", stop_time=3.0)   # what fmpy.simulate_fmu returns
-
-    plant = fmi.FMU("plant.fmu", name="plant", period=0.01, parameters={"e": 0.7},
-                    inputs={"u": "cmd"}, outputs={"y": "state"})
-    simulator.add(plant)
+plant = fmi.FMU("plant.fmu", name="plant", period=0.01, parameters={"e": 0.7},
+                inputs={"u": "cmd"}, outputs={"y": "state"})
+simulator.add(plant)
+```
 
 An FMU is a participant: every ``period`` of simulated time it takes the inputs that
 arrived on its topics, publishes its outputs (and its record, on the topic named like it)
 and steps (``doStep``; model exchange: FMPy's CVode or Euler). FMPy loads and runs the
 FMU; its model description is the contract, checked before anything starts
-(:func:`describe`). See docs/guides/fmi.md.
+([`describe`][multicosim.fmi.describe]). See docs/guides/fmi.md.
 
-Modules: :mod:`.model` (the model description), :mod:`.config` (the checked configuration),
-:mod:`.instance` (the FMI calls, through FMPy), :mod:`.participant` (the stepped program),
-:mod:`.messages` (record, values and log on topics), :mod:`.component` (the component and
-its node), :mod:`.build` (a binary from the sources, the container image), :mod:`.simulate`,
-:mod:`.errors`.
+Modules: ``model`` (the model description), ``config`` (the checked configuration),
+``instance`` (the FMI calls, through FMPy), ``participant`` (the stepped program),
+``messages`` (record, values and log on topics), ``component`` (the component and
+its node), ``build`` (a binary from the sources, the container image), ``simulate``,
+``errors``.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
-"""An FMU as a component: :class:`FMU` (the configuration, checked on construction) and the
-:class:`FMUNode` it starts where its placement runs it (this process, a local process, a
-container, ...)."""
+"""An FMU as a component: [`FMU`][multicosim.fmi.component.FMU] (the configuration, checked on
+construction) and the [`FMUNode`][multicosim.fmi.component.FMUNode] it starts where its placement
+runs it (this process, a local process, a container, ...)."""
 
 from __future__ import annotations
 
@@ -45,17 +45,20 @@ __all__ = ["FMU", "FMUNode", "default_name"]
 
 @dataclasses.dataclass(frozen=True)
 class FMU:
-    """An FMU (FMI 2.0 or 3.0) as a component, checked against its model description::
+    """An FMU (FMI 2.0 or 3.0) as a component, checked against its model description:
 
-        fmi.FMU("plant.fmu", name="plant", period=0.01, parameters={"e": 0.7},
-                inputs={"u": "cmd"}, outputs={"y": "state"})
+    ```python
+    fmi.FMU("plant.fmu", name="plant", period=0.01, parameters={"e": 0.7},
+            inputs={"u": "cmd"}, outputs={"y": "state"})
+    ```
 
     ``inputs`` maps input variables to the topics they are read from, ``outputs`` output
     variables (or locals named in ``record``) to the topics they are published on; every
     step the component also publishes its record (time, every output and the ``record``
     variables) on the topic named like it. ``parameters`` and ``start_values`` set
     variables by name before the run (arrays as nested or flat sequences). ``period`` is
-    the communication step (default: the FMU's own, :attr:`Model.default_step`).
+    the communication step (default: the FMU's own,
+    [`Model.default_step`][multicosim.fmi.Model.default_step]).
 
     ``placement`` is where it runs: ``"in-process"`` (fastest), ``"process"`` (a crash or
     abort in the FMU's native code is a NodeCrashedError, not the end of the test process),
@@ -66,7 +69,7 @@ class FMU:
     ``start_time`` is the FMU's time when the simulation starts; ``stop_time`` is told to
     the FMU and it does not step past it. ``compile`` builds a binary from the FMU's C sources
     (with FMPy and a C compiler) when it has none for this platform. ``history`` keeps
-    every record for :meth:`FMUNode.result`.
+    every record for [`FMUNode.result`][multicosim.fmi.component.FMUNode.result].
     """
 
     path: str | os.PathLike[str]
@@ -244,10 +247,12 @@ class FMU:
 class FMUNode:
     """A running FMU component: its node where it runs, and what it published.
 
-    :meth:`result` gives the recorded variables as fmpy.simulate_fmu gives them (a NumPy
-    structured array: ``time``, then the numbers and booleans); :meth:`log` the FMU's own
-    log messages; :meth:`trace_options` tells a trace recorder the types and units of its
-    channels. ``node`` is the underlying in-process, process or container node.
+    [`result`][multicosim.fmi.component.FMUNode.result] gives the recorded variables as
+    fmpy.simulate_fmu gives them (a NumPy structured array: ``time``, then the numbers and
+    booleans); [`log`][multicosim.fmi.component.FMUNode.log] the FMU's own log messages;
+    [`trace_options`][multicosim.fmi.component.FMUNode.trace_options] tells a trace recorder the
+    types and units of its channels. ``node`` is the underlying in-process, process or container
+    node.
     """
 
     def __init__(
@@ -282,7 +287,7 @@ class FMUNode:
         return self.plan.topic
 
     def records(self) -> list[Any]:
-        """Every record published so far, typed (see :mod:`multicosim.fmi.messages`)."""
+        """Every record published so far, typed (see ``multicosim.fmi.messages``)."""
         if self._records is None:
             raise MulticosimError(f"FMU {self.name!r} keeps no history (history=False)")
         return _typed(self._records, self.plan.record_type, f"{self.name}'s record")

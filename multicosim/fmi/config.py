@@ -1,9 +1,9 @@
 """An FMU component's configuration, and the plan it makes against the model description.
 
-:class:`FMUConfig` is what the FMU participant program runs (it travels as JSON to a process
-or a container); :func:`plan` checks it against the model description, the contract, and
-resolves it: which variables are recorded and in what order, what each topic carries, which
-values are set. Host and participant make the same plan from the same configuration.
+[`FMUConfig`][multicosim.fmi.config.FMUConfig] is what the FMU participant program runs (it travels
+as JSON to a process or a container); ``plan`` checks it against the model description, the
+contract, and resolves it: which variables are recorded and in what order, what each topic carries,
+which values are set. Host and participant make the same plan from the same configuration.
 """
 
 from __future__ import annotations
@@ -42,7 +42,7 @@ SETTABLE = (*PARAMETERS, "input", "output", "local")
 
 
 class FMUConfig(msgspec.Struct, frozen=True, kw_only=True):
-    """What an FMU participant runs (see :class:`multicosim.fmi.FMU` for the fields).
+    """What an FMU participant runs (see [`multicosim.fmi.FMU`][multicosim.fmi.FMU] for the fields).
 
     ``values`` holds parameters and start values by name; ``inputs`` and ``outputs`` map
     variables to topics; ``record`` names the variables recorded beside the outputs;
@@ -69,7 +69,7 @@ class FMUConfig(msgspec.Struct, frozen=True, kw_only=True):
 
 @dataclasses.dataclass(frozen=True)
 class Plan:
-    """A configuration resolved against its model (see :func:`plan`)."""
+    """A configuration resolved against its model (see ``plan``)."""
 
     config: FMUConfig
     model: Model
@@ -173,7 +173,7 @@ def check_values(
 ) -> dict[str, Any]:
     """``given`` (variable name -> value) checked against ``model``: each a settable variable
     of one of ``causalities``, each value of its type, size and range (arrays flattened, at
-    the ``shapes`` the structural parameters give them, :func:`shapes_of`)."""
+    the ``shapes`` the structural parameters give them, ``shapes_of``)."""
     if not isinstance(given, Mapping):
         raise ConfigurationError(field_name, given, "a mapping of variable name to value")
     out: dict[str, Any] = {}

@@ -15,9 +15,9 @@ __all__ = ["FMUError"]
 class FMUError(NodeError):
     """An FMU answered an FMI call with Discard, Error or Fatal (or its solver failed).
 
-    A :class:`multicosim.NodeError`: ``name`` is the component, ``function`` the FMI call
-    (``fmi2DoStep``, ``fmi3DoStep``, ...), ``status`` what it returned, ``time`` the simulated
-    time (s) of the step and ``fmu_time`` the FMU's own (they differ by the FMU's
+    A [`multicosim.NodeError`][multicosim.NodeError]: ``name`` is the component, ``function`` the
+    FMI call (``fmi2DoStep``, ``fmi3DoStep``, ...), ``status`` what it returned, ``time`` the
+    simulated time (s) of the step and ``fmu_time`` the FMU's own (they differ by the FMU's
     ``start_time``). The run stops there and the instance is freed. Run as a process or a
     container, the same failure ends the component's program, and the host reports a
     NodeCrashedError whose log tail holds this error and the FMU's own log.

@@ -283,7 +283,7 @@ class Instance:
         self.setter(v)(value)
 
     def reader(self, variables: Sequence[Variable]) -> Reader:
-        """A :class:`Reader` of ``variables``."""
+        """A ``Reader`` of ``variables``."""
         return Reader(self.fmu, self.model, variables, self.shape)
 
     # -- model exchange -------------------------------------------------------------------
@@ -364,8 +364,8 @@ class Instance:
     def advance(self, time: float, until: float) -> None:
         """Advance from communication point ``time`` to ``until`` (doStep, or integrate).
 
-        Sets :attr:`terminated` if the FMU asks to end the simulation. FMPy raises for a
-        status above Warning: the caller turns that into FMUError with :meth:`failure`.
+        Sets ``terminated`` if the FMU asks to end the simulation. FMPy raises for a
+        status above Warning: the caller turns that into FMUError with ``failure``.
         """
         if self.interface == "ModelExchange":
             self._integrate(time, until)

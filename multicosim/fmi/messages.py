@@ -4,13 +4,13 @@
   name): a msgspec Struct generated from the model description, with the FMU's time and one
   field per recorded variable (its outputs, and the inputs and locals asked for), each
   described in its JSON schema with its causality, unit and range. A trace writes it as one
-  channel per FMU; :meth:`~multicosim.fmi.FMUNode.result` reads it back as FMPy does.
+  channel per FMU; [`result`][multicosim.fmi.FMUNode.result] reads it back as FMPy does.
 * A variable mapped to a topic (``outputs={"h": "height"}``) is published there as a plain
   value: a float, an int, a bool, a str, bytes, or a flat list (row-major) for an FMI 3 array.
   An input topic is read as the same: a value of the input's type, validated on receipt
   (range, array length).
-* The FMU's own log messages go to ``NAME/log`` as :class:`LogLine`; a trace shows them as
-  a ``foxglove.Log`` channel.
+* The FMU's own log messages go to ``NAME/log`` as [`LogLine`][multicosim.fmi.messages.LogLine]; a
+  trace shows them as a ``foxglove.Log`` channel.
 """
 
 from __future__ import annotations
@@ -99,7 +99,7 @@ def columns(model: Model, variables: Sequence[Variable]) -> list[Variable]:
 def result_dtype(
     model: Model, variables: Sequence[Variable], shapes: dict[str, tuple[int, ...]]
 ) -> np.dtype[Any]:
-    """The dtype of fmpy.simulate_fmu's result for ``variables`` (in :func:`columns` order).
+    """The dtype of fmpy.simulate_fmu's result for ``variables`` (in ``columns`` order).
 
     Like FMPy's, it holds the numbers and booleans; strings and binaries stay in the record.
     """

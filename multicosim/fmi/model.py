@@ -1,9 +1,9 @@
 """The model description as the contract: an FMU's variables, their types, ranges and units.
 
-:func:`describe` reads an FMU's ``modelDescription.xml`` with FMPy (validated against the
-FMI schema) and checks what multicosim can run: FMI 2.0 or 3.0, a co-simulation or
-model-exchange interface, a binary for this platform (or C sources, compiled with FMPy on
-request). Every configuration of an :class:`~multicosim.fmi.FMU` is checked against it before
+[`describe`][multicosim.fmi.model.describe] reads an FMU's ``modelDescription.xml`` with FMPy
+(validated against the FMI schema) and checks what multicosim can run: FMI 2.0 or 3.0, a
+co-simulation or model-exchange interface, a binary for this platform (or C sources, compiled with
+FMPy on request). Every configuration of an [`FMU`][multicosim.fmi.FMU] is checked against it before
 anything starts; an unknown or misused variable is a ConfigurationError that lists the
 variables the FMU has of the causality asked for.
 """
@@ -186,7 +186,7 @@ class Model:
 
     ``platforms`` are those FMPy finds binaries for (``c-code`` when it carries C sources);
     ``default_step`` is the step the FMU states (FMI 3's ``fixedInternalStepSize``, else the
-    default experiment's ``stepSize``), the period of an :class:`~multicosim.fmi.FMU` that
+    default experiment's ``stepSize``), the period of an [`FMU`][multicosim.fmi.FMU] that
     names none. ``description`` is FMPy's ``ModelDescription`` itself.
     """
 
@@ -274,7 +274,7 @@ def describe(path: str | os.PathLike[str]) -> Model:
     ConfigurationError (field ``path``) for a missing file, a file that is not an FMU, a
     model description that does not validate, FMI 1.0, or an FMU without a co-simulation or
     model-exchange interface. Whether it has a binary for this platform is checked where it
-    is run (:attr:`Model.runnable_here`).
+    is run ([`Model.runnable_here`][multicosim.fmi.model.Model.runnable_here]).
     """
     resolved = Path(path).expanduser().resolve()
     if not resolved.exists():

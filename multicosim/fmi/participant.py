@@ -37,8 +37,10 @@ log = logging.getLogger(__name__)
 class FMUParticipant:
     """An FMU as a participant (``period``, ``setup``, ``step``, ``close``).
 
-    ``keep_log`` and ``keep_history`` keep what it publishes in :attr:`log_lines` and
-    :attr:`history` (its records) too, for a node in the same process.
+    ``keep_log`` and ``keep_history`` keep what it publishes in
+    [`log_lines`][multicosim.fmi.participant.FMUParticipant.log_lines] and
+    [`history`][multicosim.fmi.participant.FMUParticipant.history] (its records) too, for a node in
+    the same process.
     """
 
     def __init__(

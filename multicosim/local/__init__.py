@@ -1,8 +1,8 @@
 """Local execution: components in-process or as local processes, in lockstep.
 
 ``ProcessSimulator`` is the embedded default backend (no Docker needed). Its environment
-(:class:`LocalEnvironment`) holds the simulated clock and, once a process needs it, the
-coordinator socket through which process components are stepped.
+([`LocalEnvironment`][multicosim.local.LocalEnvironment]) holds the simulated clock and, once a
+process needs it, the coordinator socket through which process components are stepped.
 
 The backend lives in modules of one concern each; this module gathers their public names:
 
@@ -10,7 +10,7 @@ The backend lives in modules of one concern each; this module gathers their publ
 * ``coordinator``: the lockstep socket; ``environment``: what components are given;
 * ``processes``: local processes; ``firmware``: firmware nodes over ZeroMQ;
 * ``inprocess``: in-process components; ``simulators`` and ``simulation``: simulators and
-  the running set (the scenarios' base is :mod:`multicosim.placement.scenario`);
+  the running set (the scenarios' base is ``multicosim.placement.scenario``);
 * ``check``: ``check_component``, the conformance check of a component of one's own;
 * ``load``: ``CpuLoad``, busy processes for tests and soaks under load.
 """

@@ -1,9 +1,9 @@
 """A conformance checker for users' own components, as Gymnasium's ``check_env`` is for envs.
 
-:func:`check_component` runs one participant or firmware the ways multicosim runs it, in-process
-and as a local process, and checks what every component must do: run, give the same messages
-twice for one seed and the same in-process as in a process, stop idempotently, and leave no
-thread, process or run directory behind.
+[`check_component`][multicosim.local.check.check_component] runs one participant or firmware the
+ways multicosim runs it, in-process and as a local process, and checks what every component must do:
+run, give the same messages twice for one seed and the same in-process as in a process, stop
+idempotently, and leave no thread, process or run directory behind.
 """
 
 from __future__ import annotations
@@ -43,7 +43,8 @@ _Run = tuple[list[tuple[str, int, bytes]], bytes | None]
 
 @dataclasses.dataclass(frozen=True)
 class Check:
-    """One check of :func:`check_component`: its ``name``, whether it ``passed``, and why not."""
+    """One check of [`check_component`][multicosim.local.check.check_component]: its ``name``,
+    whether it ``passed``, and why not."""
 
     name: str
     passed: bool
@@ -52,7 +53,8 @@ class Check:
 
 @dataclasses.dataclass(frozen=True)
 class ComponentReport:
-    """What :func:`check_component` found; ``str(report)`` lists every check."""
+    """What [`check_component`][multicosim.local.check.check_component] found; ``str(report)`` lists
+    every check."""
 
     target: str
     checks: tuple[Check, ...]

@@ -2,7 +2,7 @@
 in-process participants' steps.
 
 A process component that stops answering is noticed by the wait on its socket; code in our
-own thread cannot be waited on, only interrupted. :func:`run_within` runs a call under a
+own thread cannot be waited on, only interrupted. ``run_within`` runs a call under a
 deadline; one daemon thread per process checks the armed calls every ``POLL`` seconds and
 raises an asynchronous exception (``PyThreadState_SetAsyncExc``) in the thread of a call past
 its deadline. Arming and disarming cost two dictionary updates. A call blocked inside a C
@@ -39,7 +39,7 @@ class _Expired(BaseException):
 
 
 class Expired:
-    """What :func:`run_within` returns for a call it interrupted: where the call was."""
+    """What ``run_within`` returns for a call it interrupted: where the call was."""
 
     __slots__ = ("where",)
 
@@ -91,7 +91,7 @@ class _Deadlines:
                 _interrupt(me, None)
 
     def forget(self, key: int) -> bool:
-        """After :meth:`settle`: whether the watch fired for call ``key``; forget the call."""
+        """After ``settle``: whether the watch fired for call ``key``; forget the call."""
         with self._lock:
             self._settled.discard(key)
             return self._fired.pop(key, None) is not None
@@ -123,7 +123,7 @@ def run_within(
     a function the watch asks each time it looks: a deadline the call moves on as it makes
     progress).
 
-    Returns the call's result, or :class:`Expired` (saying where it was) if it was
+    Returns the call's result, or ``Expired`` (saying where it was) if it was
     interrupted. Calls nest: an enclosing call's deadline interrupts an inner one too, and
     propagates out of it to its own ``run_within``. Costs a few dictionary operations.
     """

@@ -1,8 +1,9 @@
 """Firmware nodes reached over ZeroMQ, and the components that start them locally.
 
 A firmware in a process (or a container, see ``multicosim.docker``) is a ROUTER socket
-that answers calls; the host's :class:`ProcessFirmwareNode` is the DEALER that calls it and runs
-the simulation's clock while it waits for the answer.
+that answers calls; the host's
+[`ProcessFirmwareNode`][multicosim.local.firmware.ProcessFirmwareNode] is the DEALER that calls it
+and runs the simulation's clock while it waits for the answer.
 """
 
 from __future__ import annotations

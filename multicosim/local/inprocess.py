@@ -2,7 +2,7 @@
 
 Each call into them is bounded as a call to a process is: a firmware call by its ``timeout``,
 a participant's step by the simulation's step timeout, its construction and setup by its
-``start_timeout``; code that overruns is interrupted (:mod:`multicosim.local.deadlines`) and
+``start_timeout``; code that overruns is interrupted (``multicosim.local.deadlines``) and
 the run fails with NodeTimeoutError (or NodeStartError) naming the component, the simulated
 time and the line it was running.
 """

@@ -119,7 +119,8 @@ def runs_directory() -> Path:
 
 
 def new_run_dir(base: Path | None) -> tuple[str, Path]:
-    """A new run's id and directory (in ``base``, default :func:`runs_directory`)."""
+    """A new run's id and directory (in ``base``, default
+    [`runs_directory`][multicosim.local.rundirs.runs_directory])."""
     run_id = f"mcs-{uuid.uuid4().hex[:12]}"
     run_dir = (base if base is not None else runs_directory()) / run_id
     run_dir.mkdir(parents=True)

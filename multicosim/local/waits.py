@@ -1,11 +1,12 @@
 """Waits with a timeout: how often they check liveness, their defaults, and crash reports.
 
 Every wait of the local and Docker backends has a wall-clock timeout and checks, every
-``SLICE_MS``, that what it waits on (a :class:`Watch`: a process, a thread, a container) is
-still alive. When it is not, or does not answer in time, the error names the fault in the
-same words whatever the backend (:func:`ending`, :func:`stalled`): the component *exited*
-(exit code 0), *crashed* (killed by a signal, an exception, another exit code), *ran out of
-memory*, is *frozen* (stopped, paused) or *unreachable* (disconnected from its network).
+``SLICE_MS``, that what it waits on (a [`Watch`][multicosim.local.waits.Watch]: a process, a thread,
+a container) is still alive. When it is not, or does not answer in time, the error names the fault
+in the same words whatever the backend ([`ending`][multicosim.local.waits.ending],
+[`stalled`][multicosim.local.waits.stalled]): the component *exited* (exit code 0), *crashed*
+(killed by a signal, an exception, another exit code), *ran out of memory*, is *frozen* (stopped,
+paused) or *unreachable* (disconnected from its network).
 """
 
 from __future__ import annotations

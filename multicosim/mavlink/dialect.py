@@ -1,7 +1,7 @@
 """MAVLink 2 (dialect ``common``, or another of pymavlink's) through pymavlink, and its numbers.
 
 What an autopilot puts in HEARTBEAT.custom_mode is its own: PX4's encoding is in
-:mod:`multicosim.px4.modes`, ArduPilot's in :mod:`multicosim.ardupilot`.
+``multicosim.px4.modes``, ArduPilot's in [`multicosim.ardupilot`][multicosim.ardupilot].
 """
 
 from __future__ import annotations
@@ -94,7 +94,7 @@ _scalar: dict[int, Any] = {}  # msgid -> class, for messages of scalar fields on
 
 
 def scalar_class(msgid: int) -> Any:
-    """The message class of ``msgid`` if its fields are all scalars (:func:`pack_scalar`)."""
+    """The message class of ``msgid`` if its fields are all scalars (``pack_scalar``)."""
     cls = _scalar.get(msgid, False)
     if cls is False:
         cls = dialect().mavlink_map.get(msgid)
@@ -111,7 +111,7 @@ def pack_scalar(mav: Any, cls: Any, *values: Any, keep: list[Any] | None = None)
 
     Byte for byte what pymavlink's ``pack`` produces (trailing zeros trimmed, CRC with
     crc_extra), without its per-message overhead; used for the high-rate telemetry. With
-    ``keep``, the message as a receiver decodes it is appended there (see :func:`remember`).
+    ``keep``, the message as a receiver decodes it is appended there (see ``remember``).
     """
     payload = cls.unpacker.pack(*values)
     n = len(payload)
@@ -158,7 +158,7 @@ def remember(data: bytes, frames: list[tuple[bytes, Any]]) -> None:
     """``data`` (the concatenated ``frames``) was just packed in this process.
 
     Each frame comes with the message a receiver would decode from it, or None. When the
-    very same bytes object reaches :func:`decode_frames` (an in-process peer on the same
+    very same bytes object reaches ``decode_frames`` (an in-process peer on the same
     topic), those messages are returned without parsing; a copy that crossed a process or
     a socket is a different object and is parsed as usual.
     """

@@ -1,7 +1,7 @@
 """Several ground stations flying at once on one clock: a fleet's missions.
 
-A ground station (:class:`~.gcs.GroundStation`) flies one vehicle's mission as a procedure
-that steps the clock itself. To fly several vehicles at once, :func:`fly_together` runs each
+A ground station (``GroundStation``) flies one vehicle's mission as a procedure
+that steps the clock itself. To fly several vehicles at once, ``fly_together`` runs each
 one's procedure in a lane of its own, a thread used as a coroutine: the firmware that flies
 them all hands its context to one lane at a time, in the fleet's order, until that lane asks
 for the next step; once every lane has, it steps the clock and starts again. Only one lane
@@ -131,7 +131,7 @@ def fly_together(
     """Run every procedure of ``runs`` (by name, in order) at once on ``ctx``'s clock; their
     results by name. The first failure (in the fleet's order) ends them all and is raised."""
     if len(runs) == 1:  # one vehicle: its procedure steps the clock itself, no lane needed
-        (name, run), = runs.items()
+        ((name, run),) = runs.items()
         return {name: run(LaneContext(ctx, name, ctx.step))}
     lanes = [_Lane(name, run, ctx) for name, run in runs.items()]
     try:

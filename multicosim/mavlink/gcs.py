@@ -7,8 +7,8 @@ upload the plan, COMMAND_LONG to arm and start, telemetry to record the trajecto
 
 The protocols are MAVLink's and shared by every autopilot; what differs between autopilots
 (flight modes, parameter names, the mission's layout, the arming and start sequence, when a
-mission counts as done) is a :class:`Procedure`: PX4's in :mod:`multicosim.px4.procedure`,
-ArduPilot's in :mod:`multicosim.ardupilot`.
+mission counts as done) is a ``Procedure``: PX4's in ``multicosim.px4.procedure``,
+ArduPilot's in [`multicosim.ardupilot`][multicosim.ardupilot].
 """
 
 from __future__ import annotations

@@ -3,8 +3,8 @@
 The payloads mirror MAVLink's HIL_SENSOR, HIL_GPS and HIL_ACTUATOR_CONTROLS field for field
 (same names, units and order). With ``wire="native"`` they travel as these Structs (free
 in-process, MessagePack between processes); with ``wire="mavlink"`` every payload is a
-:class:`MavlinkPacket` holding the packed MAVLink 2 frame, exactly what PX4 SITL exchanges
-with its simulator. :func:`read_sensor` and friends accept either, so an injector written
+``MavlinkPacket`` holding the packed MAVLink 2 frame, exactly what PX4 SITL exchanges
+with its simulator. ``read_sensor`` and friends accept either, so an injector written
 once works on both wires.
 """
 
@@ -110,9 +110,9 @@ class Truth(msgspec.Struct, frozen=True, array_like=True, gc=False):
     """The world's ground truth: local NED position (m) from home, velocity, WGS84 position,
     attitude (unit quaternion w, x, y, z rotating FRD body axes into NED), body rates and the
     specific force (m/s^2, body FRD: what an ideal accelerometer reads, gravity included), and
-    how close the vehicle is to the world's obstacles (a :class:`~multicosim.physics.Proximity`:
-    clearances in m, infinite without obstacles; the obstacle touched now and the first one
-    hit, -1 for none)."""
+    how close the vehicle is to the world's obstacles (a
+    [`Proximity`][multicosim.physics.Proximity]: clearances in m, infinite without obstacles; the
+    obstacle touched now and the first one hit, -1 for none)."""
 
     time: float
     north: float
@@ -237,7 +237,7 @@ def read(payload: object, tp: type[M]) -> M | None:
 
 def write(msg: HilMessage, wire: Wire, packer: Packer | None = None) -> HilMessage | MavlinkPacket:
     """The payload to publish for ``msg`` on ``wire``: a frame numbered by ``packer`` (the
-    publisher's own, see :class:`Packer`), else a frame of its own (sequence number 0)."""
+    publisher's own, see ``Packer``), else a frame of its own (sequence number 0)."""
     return (packer or Packer()).write(msg, wire)
 
 

@@ -2,9 +2,9 @@
 a bridge needs to tell a firmware that went away or went silent.
 
 Every simulator bridge of a real firmware uses them: PX4's simulator interface
-(:mod:`multicosim.px4.simulator`) and ArduPilot's JSON physics (:mod:`multicosim.ardupilot`).
-A connection that does not speak MAVLink is closed, so a stray local client cannot take the
-firmware's place.
+(``multicosim.px4.simulator``) and ArduPilot's JSON physics
+([`multicosim.ardupilot`][multicosim.ardupilot]). A connection that does not speak MAVLink is
+closed, so a stray local client cannot take the firmware's place.
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ def parse(parser: Any, data: bytes) -> list[Any]:
 
 
 class MavlinkClient(NamedTuple):
-    """A client taken by :class:`FirstMavlinkClient`."""
+    """A client taken by ``FirstMavlinkClient``."""
 
     conn: socket.socket
     parser: Any

@@ -3,7 +3,7 @@ validated on construction (PX4's and ArduPilot's scenarios share them).
 
 Everything here is a frozen msgspec Struct: it is a message (sent to the firmware node, or
 passed as JSON to a component process) and a configuration (invalid values raise
-:class:`~multicosim.ConfigurationError` naming the field before anything starts).
+[`ConfigurationError`][multicosim.ConfigurationError] naming the field before anything starts).
 """
 
 from __future__ import annotations
@@ -70,8 +70,9 @@ class Configuration(msgspec.Struct, frozen=True):
     ``end``: after the last waypoint, ``"land"`` there, return and land (``"rtl"``) or hold
     position (``"hold"``). ``takeoff_alt`` defaults to the first waypoint's altitude.
     ``time_limit`` bounds the mission in simulated seconds: past it the result is incomplete.
-    ``plan``, when given (:meth:`from_plan`), is what the vehicle flies, item for item, with
-    its geofence and rally points; ``mission`` then lists its waypoints.
+    ``plan``, when given ([`from_plan`][multicosim.mavlink.mission.Configuration.from_plan]), is
+    what the vehicle flies, item for item, with its geofence and rally points; ``mission`` then
+    lists its waypoints.
     """
 
     mission: list[Waypoint]

@@ -1,7 +1,7 @@
 """The firmware node a ground station flies: ``send(Configuration) -> MissionResult``.
 
-PX4's and ArduPilot's scenarios both give :class:`MissionNode` as their firmware: the ground
-station (:mod:`.gcs`) in this process, the autopilot wherever it runs.
+PX4's and ArduPilot's scenarios both give ``MissionNode`` as their firmware: the ground
+station (``gcs``) in this process, the autopilot wherever it runs.
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@
 A plan is JSON (``fileType: "Plan"``, version 1) with three parts, as QGroundControl saves
 them: ``mission`` (its items, ``plannedHomePosition``, ``cruiseSpeed``/``hoverSpeed``),
 ``geoFence`` (inclusion and exclusion polygons and circles) and ``rallyPoints``. A
-:class:`Plan` holds what a vehicle flies: the simple items as MAVLink mission items (all
+``Plan`` holds what a vehicle flies: the simple items as MAVLink mission items (all
 seven parameters, the frame as saved), with DO_JUMP targets as indices into ``items``
 (QGroundControl numbers them by ``doJumpId``, home being 0). Complex items (survey, corridor
 and structure scans) are saved unexpanded: QGroundControl computes their waypoints when it
@@ -98,7 +98,7 @@ class PlanItem(msgspec.Struct, frozen=True):
     """A mission item: MAVLink ``command`` in ``frame`` with params 1-7 (5-7: lat, lon, alt).
 
     ``NaN`` stands for a parameter QGroundControl leaves unset (``null``); for DO_JUMP,
-    param 1 is the index of the target in :attr:`Plan.items`.
+    param 1 is the index of the target in ``Plan.items``.
     """
 
     command: int
@@ -401,7 +401,7 @@ def _item_json(index: int, item: PlanItem) -> dict[str, Any]:
 
 
 def write_plan(plan: Plan, path: str | Path) -> None:
-    """Write ``plan`` as a QGroundControl ``.plan`` file (what :func:`read_plan` reads)."""
+    """Write ``plan`` as a QGroundControl ``.plan`` file (what ``read_plan`` reads)."""
     doc = {
         "fileType": "Plan",
         "geoFence": {

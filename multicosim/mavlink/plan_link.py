@@ -1,6 +1,6 @@
 """A QGroundControl plan over MAVLink: its items encoded, its areas uploaded, its waypoints found.
 
-The ground station (:mod:`.gcs`) flies a :class:`~.plan.Plan` item for item: the mission as
+The ground station (``gcs``) flies a ``Plan`` item for item: the mission as
 MISSION_ITEM_INTs (numbered from where the autopilot wants them), the geofence and rally
 points with their own mission types, and the reports of reached items mapped back to the
 plan's waypoints.

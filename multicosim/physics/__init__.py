@@ -1,42 +1,46 @@
 """The MuJoCo physics world: its configuration, the world participant, the Vehicle protocol.
 
 ``WorldConfig`` plays the role of the paper's ``Gazebo(backend=ODE(...), step_size=...)``.
-A :class:`World` is a participant that steps MuJoCo in lockstep with the simulation and
-hands the vehicle-specific part to a :class:`Vehicle`: any object with ``sensors`` (each
-sensor's name and default topic, which ``WorldConfig.sensor_topics`` may move), and
-``load_model()``, ``setup(physics, ctx, topics)``, ``actuate(physics, ctx)`` and
+A [`World`][multicosim.physics.World] is a participant that steps MuJoCo in lockstep with the
+simulation and hands the vehicle-specific part to a [`Vehicle`][multicosim.physics.Vehicle]: any
+object with ``sensors`` (each sensor's name and default topic, which ``WorldConfig.sensor_topics``
+may move), and ``load_model()``, ``setup(physics, ctx, topics)``, ``actuate(physics, ctx)`` and
 ``sense(physics, ctx)``. The world knows no vehicle: the shipped ones live in their own
 packages (``multicosim.rover.body``, ``multicosim.quadrotor.vehicle``), and a user's own
-is a class in the user's own module::
+is a class in the user's own module:
 
-    class Pendulum:  # a multicosim.physics.Vehicle
-        def __init__(self) -> None:
-            self.sensors = {"angle": "pendulum/angle"}
+```python
+class Pendulum:  # a multicosim.physics.Vehicle
+    def __init__(self) -> None:
+        self.sensors = {"angle": "pendulum/angle"}
 
-        def load_model(self) -> Any:
-            return mujoco.MjModel.from_xml_string(MJCF)
+    def load_model(self) -> Any:
+        return mujoco.MjModel.from_xml_string(MJCF)
 
-        def setup(self, physics: Physics, ctx: StepContext, topics: Mapping[str, str]) -> None:
-            self.topic = topics["angle"]
-            self.torque = ctx.subscribe("pendulum/torque", Torque)
-            physics.data.qpos[0] = 0.5  # the initial state; the first readings are of it
+    def setup(self, physics: Physics, ctx: StepContext, topics: Mapping[str, str]) -> None:
+        self.topic = topics["angle"]
+        self.torque = ctx.subscribe("pendulum/torque", Torque)
+        physics.data.qpos[0] = 0.5  # the initial state; the first readings are of it
 
-        def actuate(self, physics: Physics, ctx: StepContext) -> None:
-            if self.torque.latest is not None:
-                physics.data.ctrl[0] = self.torque.latest.value
+    def actuate(self, physics: Physics, ctx: StepContext) -> None:
+        if self.torque.latest is not None:
+            physics.data.ctrl[0] = self.torque.latest.value
 
-        def sense(self, physics: Physics, ctx: StepContext) -> None:
-            ctx.publish(self.topic, Angle(value=float(physics.sensor("angle")[0])))
+    def sense(self, physics: Physics, ctx: StepContext) -> None:
+        ctx.publish(self.topic, Angle(value=float(physics.sensor("angle")[0])))
 
 
-    def world(config: WorldConfig) -> World:
-        return World(config, Pendulum())
+def world(config: WorldConfig) -> World:
+    return World(config, Pendulum())
+```
 
-The world also holds obstacles (:class:`Box`, :class:`Cylinder`) and wind (:class:`Wind`:
-steady, gusts, Dryden turbulence) from ``WorldConfig(obstacles=..., wind=...)``. A vehicle
-that meets them describes its body (:class:`Bodied`: a ``body`` attribute, a :class:`Body`
-naming its MuJoCo body, the radius that encloses it and its drag) and returns an ``MjSpec``
-from ``load_model()``, so the world can add the obstacles' geoms before compiling.
+The world also holds obstacles ([`Box`][multicosim.physics.Box],
+[`Cylinder`][multicosim.physics.Cylinder]) and wind ([`Wind`][multicosim.physics.Wind]: steady,
+gusts, Dryden turbulence) from ``WorldConfig(obstacles=..., wind=...)``. A vehicle that meets them
+describes its body ([`Bodied`][multicosim.physics.Bodied]: a ``body`` attribute, a
+[`Body`][multicosim.physics.Body] naming its MuJoCo body, the radius that encloses it and its drag)
+and returns an ``MjSpec`` from ``load_model()``, so the world can add the obstacles' geoms before
+compiling.
 
 ``python -m multicosim participant mymodule:world --config JSON`` runs that world as a
 process (``multicosim.local.participant_command("mymodule:world", config)`` builds the

@@ -1,5 +1,5 @@
-"""One MuJoCo model from a fleet's vehicles (see :mod:`.fleet`): each vehicle's bodies attached
-under its name at its start pose, the ground, the obstacles, one air."""
+"""One MuJoCo model from a fleet's vehicles (see [`fleet`][multicosim.fleet]): each vehicle's bodies
+attached under its name at its start pose, the ground, the obstacles, one air."""
 
 from __future__ import annotations
 

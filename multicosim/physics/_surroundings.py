@@ -1,7 +1,7 @@
 """The world around the vehicle in MuJoCo: obstacle geometry, the wind's drag, collisions.
 
 Obstacles become static geoms of the world body, colliding only with a sphere the world adds
-to the vehicle's body (its :class:`~multicosim.physics.wind.Body` radius), so a contact
+to the vehicle's body (its [`Body`][multicosim.physics.wind.Body] radius), so a contact
 between them is a collision and nothing else changes (the ground, the vehicle's own geoms).
 """
 

@@ -61,12 +61,12 @@ class WorldConfig:
     world integrates ``period / timestep`` MuJoCo steps in one batch between exchanges.
     ``sensor_topics`` maps a sensor's name to the topic it is published on instead of its
     default one, so that an injector can sit between a sensor and its reader. ``home`` is
-    the (latitude, longitude, altitude) of the local origin (a :class:`~multicosim.core.geo.Home`);
+    the (latitude, longitude, altitude) of the local origin (a [`Home`][multicosim.core.geo.Home]);
     ``magnetic_field`` is Earth's field in the local ENU frame (tesla). ``noise`` scales the
     vehicle's sensor-noise model: 0 gives ideal sensors, 1 the vehicle's realistic model.
-    ``obstacles`` are :class:`~multicosim.physics.Box` and :class:`~multicosim.physics.Cylinder`
+    ``obstacles`` are [`Box`][multicosim.physics.Box] and [`Cylinder`][multicosim.physics.Cylinder]
     standing on the ground (none may overlap another or stand within 1 m of home); ``wind``
-    is the air's motion (:class:`~multicosim.physics.Wind`; None: still air and no
+    is the air's motion ([`Wind`][multicosim.physics.Wind]; None: still air and no
     aerodynamic drag beyond MuJoCo's own).
     """
 

@@ -1,20 +1,21 @@
 """Between vehicles: separation, the closest point of approach, well clear, collisions.
 
 Vehicle-neutral geometry on true states (north/east/down metres from home and velocities),
-what a fleet's requirements read (:mod:`multicosim.fleet`):
+what a fleet's requirements read ([`multicosim.fleet`][multicosim.fleet]):
 
 * **separation**: the 3-D distance between two vehicles' bodies (their centres' distance less
   both body radii; negative when they overlap), with the centres' horizontal and vertical
   distances (as separation standards measure them);
 * **closest point of approach** (CPA): where the current velocities take the two closest,
   and in how long (0 when they are already drawing apart);
-* **well clear**: a :class:`WellClear` volume's predicate, with named presets whose sources
-  the docs cite: RTCA DO-365's detect-and-avoid well-clear definition (:data:`DO_365`), the
-  near mid-air collision volume (:data:`NMAC`) and ASTM F3442's small-UAS well clear
-  (:data:`ASTM_F3442`);
-* **collisions**: two bodies' spheres touching; :func:`first_contact` finds when, between two
-  samples, from the velocities (the analytic way, at low fidelity; MuJoCo's contacts at
-  medium and high).
+* **well clear**: a [`WellClear`][multicosim.physics.encounter.WellClear] volume's predicate, with
+  named presets whose sources the docs cite: RTCA DO-365's detect-and-avoid well-clear definition
+  ([`DO_365`][multicosim.physics.encounter.DO_365]), the near mid-air collision volume
+  ([`NMAC`][multicosim.physics.encounter.NMAC]) and ASTM F3442's small-UAS well clear
+  ([`ASTM_F3442`][multicosim.physics.encounter.ASTM_F3442]);
+* **collisions**: two bodies' spheres touching;
+  [`first_contact`][multicosim.physics.encounter.first_contact] finds when, between two samples,
+  from the velocities (the analytic way, at low fidelity; MuJoCo's contacts at medium and high).
 """
 
 from __future__ import annotations
@@ -148,12 +149,13 @@ def first_contact(a: Kinematics, b: Kinematics, reach: float, within: float) -> 
 
 
 CONTACTS_TOPIC = "mcs/contacts"
-"""Where a world of several vehicles publishes their contacts (:class:`VehicleContact`)."""
+"""Where a world of several vehicles publishes their contacts
+([`VehicleContact`][multicosim.physics.encounter.VehicleContact])."""
 
 
 class VehicleContact(msgspec.Struct, frozen=True):
     """Vehicles ``a`` and ``b``'s bodies began to touch at ``time`` (s), closing at ``speed``
-    (m/s): what MuJoCo's contacts say, published by the world on :data:`CONTACTS_TOPIC`."""
+    (m/s): what MuJoCo's contacts say, published by the world on ``CONTACTS_TOPIC``."""
 
     a: str
     b: str

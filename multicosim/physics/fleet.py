@@ -5,8 +5,9 @@ Every vehicle's MJCF joins one model through MuJoCo's model-editing API: each to
 of its worldbody is attached, under the vehicle's name as a prefix (``alpha/vehicle``,
 ``alpha/motor0``), at its start pose; what the vehicle's model has on the worldbody itself (a
 ground plane, lights) is the environment, which the world provides once. A vehicle then sees
-the shared state through a :class:`MemberPhysics`: its sensors, actuators and objects by their
-own names, its own ``qpos``, ``qvel`` and ``ctrl``, its own proximity to the obstacles.
+the shared state through a [`MemberPhysics`][multicosim.physics.MemberPhysics]: its sensors,
+actuators and objects by their own names, its own ``qpos``, ``qvel`` and ``ctrl``, its own proximity
+to the obstacles.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """From MuJoCo's frames to the autopilots': one conversion for every vehicle.
 
 MuJoCo's world frame is east-north-up and a body's frame forward-left-up; autopilots (PX4,
-ArduPilot) use north-east-down and forward-right-down. :func:`ned_state` turns a body's
+ArduPilot) use north-east-down and forward-right-down. ``ned_state`` turns a body's
 MuJoCo state into the autopilots' true state once per period (``multicosim.mavlink.hil.truth``
 wraps it as the message an external autopilot's simulator interface reads). Scalar math
 only: this runs every physics period.

@@ -3,10 +3,10 @@
 An obstacle is placed by its centre on the ground, in local metres from home (``north=``,
 ``east=``) or in WGS84 degrees (``lat=``, ``lon=``); a box's ``length`` lies along its ``yaw``
 (degrees clockwise from north), its ``width`` across. The same shapes serve every fidelity:
-MuJoCo collision geometry at medium and high (:mod:`multicosim.physics.world` adds them to
+MuJoCo collision geometry at medium and high (``multicosim.physics.world`` adds them to
 the model), the analytic distances here at low.
 
-:class:`ClearanceMonitor` measures a vehicle against the obstacles: the 3-D distance from its
+``ClearanceMonitor`` measures a vehicle against the obstacles: the 3-D distance from its
 body (a sphere) to the nearest obstacle, the 2-D distance from its footprint (a disc) to the
 nearest obstacle's footprint, as PX4's community test-generation benchmark measures it, and
 the first collision. No MuJoCo import here: the low-fidelity world and the configuration use it.
@@ -292,8 +292,8 @@ _SLACK = 1e-6  # m: far above rounding, so a bound skips no obstacle at the near
 
 
 def _measure(shape: _Shape, north: float, east: float, up: float) -> tuple[float, float]:
-    """(solid, footprint) signed distances from a point to a :class:`ClearanceMonitor` shape:
-    :meth:`Placed.distance` and :meth:`Placed.footprint_distance`, from worked-out numbers."""
+    """(solid, footprint) signed distances from a point to a ``ClearanceMonitor`` shape:
+    ``Placed.distance`` and ``Placed.footprint_distance``, from worked-out numbers."""
     _, n0, e0, height, c, s, half_length, half_width, radius, _ = shape
     dn, de = north - n0, east - e0
     if radius:

@@ -2,8 +2,8 @@
 
 The wind is the air's velocity; a vehicle feels it through its drag,
 ``F = 1/2 rho Cd A |v_air - v| (v_air - v)`` with the drag coefficient and area its
-:class:`Body` gives (the world knows no vehicle: the vehicle describes itself). Every
-fidelity flies in the same air: MuJoCo applies the force to the vehicle's body, the
+[`Body`][multicosim.physics.wind.Body] gives (the world knows no vehicle: the vehicle describes
+itself). Every fidelity flies in the same air: MuJoCo applies the force to the vehicle's body, the
 low-fidelity point mass adds it to its motion; real autopilots feel it through the world only.
 
 Turbulence is the Dryden model of MIL-F-8785C at low altitude (MIL-HDBK-1797 gives the same):
@@ -82,7 +82,8 @@ class Wind(msgspec.Struct, frozen=True, kw_only=True):
     """The world's wind: steady ``speed`` (m/s) from ``direction`` (degrees clockwise from
     north, where it blows from, as weather reports give it), ``gusts`` and Dryden
     ``turbulence`` (``W20``, the wind speed at 20 ft that sets its intensity, m/s: 0 for none,
-    :data:`LIGHT`, :data:`MODERATE`, :data:`SEVERE`)."""
+    [`LIGHT`][multicosim.physics.wind.LIGHT], [`MODERATE`][multicosim.physics.wind.MODERATE],
+    [`SEVERE`][multicosim.physics.wind.SEVERE])."""
 
     speed: float = 0.0
     direction: float = 0.0

@@ -1,10 +1,10 @@
 """The MuJoCo world participant: physics state, a vehicle plug-in, lockstep stepping.
 
-The world is split the dm_control way: :class:`Physics` holds the static ``MjModel`` and the
-``MjData`` state and knows how to integrate up to a simulated time; a :class:`Vehicle`
-(rover, quadrotor, ...) knows its MJCF model, reads actuator commands from topics and
-publishes its sensors; :class:`World` is the participant that the scheduler steps every
-``WorldConfig.period``.
+The world is split the dm_control way: [`Physics`][multicosim.physics.world.Physics] holds the
+static ``MjModel`` and the ``MjData`` state and knows how to integrate up to a simulated time; a
+[`Vehicle`][multicosim.physics.world.Vehicle] (rover, quadrotor, ...) knows its MJCF model, reads
+actuator commands from topics and publishes its sensors; [`World`][multicosim.physics.world.World]
+is the participant that the scheduler steps every ``WorldConfig.period``.
 """
 
 from __future__ import annotations
@@ -72,7 +72,8 @@ def _route_warnings() -> None:
 
 
 class Physics:
-    """An MJCF model and its state, configured by a :class:`WorldConfig`.
+    """An MJCF model and its state, configured by a
+    [`WorldConfig`][multicosim.physics.world.WorldConfig].
 
     ``step_to(t)`` integrates in one batched ``mj_step`` call up to simulated time ``t``
     (counted in whole MuJoCo steps, so the world never drifts from the scheduler's clock).
@@ -279,7 +280,7 @@ class Vehicle(Protocol):
     shipped vehicles and a user's own alike (see the package docstring for an example).
     ``load_model`` may return an ``MjSpec`` instead of an ``MjModel``: the world then adds
     its obstacles to it before compiling it. A vehicle that flies among obstacles or in
-    wind also describes its body (:class:`Bodied`).
+    wind also describes its body ([`Bodied`][multicosim.physics.world.Bodied]).
     """
 
     @property
@@ -319,7 +320,8 @@ class Bodied(Protocol):
 
 
 VehicleEntry = Any
-"""A fleet's vehicle: a :class:`Vehicle`, or ``(vehicle, Pose)`` to say where it starts."""
+"""A fleet's vehicle: a [`Vehicle`][multicosim.physics.world.Vehicle], or ``(vehicle, Pose)`` to say
+where it starts."""
 
 
 @dataclasses.dataclass
@@ -344,8 +346,8 @@ class World:
 
     ``vehicle`` is one vehicle, or a mapping of named vehicles (each a vehicle or a
     ``(vehicle, Pose)``): one model then holds them all, each under its name (its objects
-    ``alpha/...``, its topics ``alpha/...``, see :mod:`.fleet`); the wind acts on every
-    body and the obstacles stand for all. ``WorldConfig.sensor_topics`` moves a fleet
+    ``alpha/...``, its topics ``alpha/...``, see [`fleet`][multicosim.fleet]); the wind acts on
+    every body and the obstacles stand for all. ``WorldConfig.sensor_topics`` moves a fleet
     vehicle's topic by ``"alpha/gps"``.
     """
 

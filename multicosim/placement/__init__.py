@@ -1,17 +1,18 @@
 """Where components run: placements behind one protocol, registered by name.
 
-A placement (:class:`Placement`) makes the simulator of a run and starts each component where
-it belongs: ``in-process`` (the simulation's own process), ``process`` (local processes in
-lockstep), ``docker`` (containers on the run's network), ``ray`` (actors on a Ray cluster),
-or one a package of yours registers in the ``multicosim.placements`` entry-point group. One
-setting chooses it everywhere (``placement=`` on scenarios and components,
+A placement ([`Placement`][multicosim.placement.Placement]) makes the simulator of a run and starts
+each component where it belongs: ``in-process`` (the simulation's own process), ``process`` (local
+processes in lockstep), ``docker`` (containers on the run's network), ``ray`` (actors on a Ray
+cluster), or one a package of yours registers in the ``multicosim.placements`` entry-point group.
+One setting chooses it everywhere (``placement=`` on scenarios and components,
 ``--mcs-placement``, a case file's ``placement``); None means the fidelity's default.
 
-* :mod:`.protocol`: the protocol and the program descriptions it places;
-* :mod:`.registry`: the names and :func:`resolve`;
-* :mod:`.local`: the ``in-process`` and ``process`` placements;
-* :mod:`.scenario`: :class:`Scenario`, the base of the scenario simulators;
-* :mod:`.firmware`: starting real firmware (SITL builds) with its bridges, as one.
+* ``protocol``: the protocol and the program descriptions it places;
+* ``registry``: the names and [`resolve`][multicosim.placement.resolve];
+* [`local`][multicosim.local]: the ``in-process`` and ``process`` placements;
+* [`scenario`][multicosim.f16.arch.Benchmark.scenario]: [`Scenario`][multicosim.placement.Scenario],
+  the base of the scenario simulators;
+* [`firmware`][multicosim.firmware]: starting real firmware (SITL builds) with its bridges, as one.
 
 Names load on first use, so that looking up a placement's name imports nothing heavy.
 """

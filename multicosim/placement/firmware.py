@@ -1,10 +1,10 @@
 """Real firmware (SITL builds of PX4, ArduPilot, ...) beside a simulation, wherever it runs.
 
-One launcher for every firmware family: :func:`launch` asks the placement where the program
-reaches this process (:class:`~.protocol.Endpoint`), has the family claim its instance and
-ports there, start its bridges in this process (they step on the simulation's clock),
-describe its program, and tell when it is ready; the placement runs the program (a local
-process, a container). What was started is one :class:`FirmwareNodes`, stopped in reverse
+One launcher for every firmware family: ``launch`` asks the placement where the program
+reaches this process ([`Endpoint`][multicosim.placement.protocol.Endpoint]), has the family claim
+its instance and ports there, start its bridges in this process (they step on the simulation's
+clock), describe its program, and tell when it is ready; the placement runs the program (a local
+process, a container). What was started is one ``FirmwareNodes``, stopped in reverse
 start order; a launch that fails stops what it had started before its error propagates.
 """
 

@@ -1,5 +1,6 @@
 """The placements of this machine: ``in-process`` (the simulation's own process) and
-``process`` (a local process each), both on a :class:`~multicosim.local.ProcessSimulator`.
+``process`` (a local process each), both on a
+[`ProcessSimulator`][multicosim.local.ProcessSimulator].
 
 A component's program is the same in both: a participant is built by its factory from its
 configuration (here, or by ``python -m multicosim participant`` in its process), a firmware

@@ -80,7 +80,7 @@ class ProgramSpec:
     ``image_workdir`` is its working directory in the container (where its files are).
     Either may be missing where the program cannot run so (a placement that needs the one
     missing says so, naming the field). It joins no simulation itself: it talks to bridges
-    in this process (see :class:`Endpoint`).
+    in this process (see [`Endpoint`][multicosim.placement.protocol.Endpoint]).
     """
 
     name: str

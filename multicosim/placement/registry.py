@@ -1,10 +1,12 @@
 """The registry of placements: the ``multicosim.placements`` entry-point group.
 
 Each entry point names a placement class (``module:Class``) under the name users choose it
-by, as pytest plugins and Gymnasium environments are registered::
+by, as pytest plugins and Gymnasium environments are registered:
 
-    [project.entry-points."multicosim.placements"]
-    process = "multicosim.placement.local:LocalProcess"
+```toml
+[project.entry-points."multicosim.placements"]
+process = "multicosim.placement.local:LocalProcess"
+```
 
 A package of one's own adds a placement the same way; nothing else changes.
 """
@@ -67,7 +69,7 @@ def resolve(
     placement: str | Placement | None, fidelity: Fidelity, field: str = "placement"
 ) -> Placement:
     """``placement`` as a Placement: a registered name, a Placement, or None (the
-    fidelity's default, :func:`default_placement`)."""
+    fidelity's default, [`default_placement`][multicosim.placement.registry.default_placement])."""
     if placement is None:
         return get_placement(default_placement(fidelity), field)
     return as_placement(placement, field)

@@ -1,9 +1,9 @@
 """The base of the scenario simulators (PX4, rover, ArduPilot, FMU loops) and their simulations.
 
-A :class:`Scenario` owns what every scenario has: its fidelity, its placement and the
-simulator that placement makes, the seed, adding components (an injector, a monitor) in the
-right place, and starting. A scenario class keeps only what is its own: which components it
-adds and what its simulation offers.
+A [`Scenario`][multicosim.placement.scenario.Scenario] owns what every scenario has: its fidelity,
+its placement and the simulator that placement makes, the seed, adding components (an injector, a
+monitor) in the right place, and starting. A scenario class keeps only what is its own: which
+components it adds and what its simulation offers.
 """
 
 from __future__ import annotations
@@ -87,7 +87,7 @@ class Scenario(Generic[SimulationT]):
     """Base of the scenario simulators: a fidelity, a placement, its simulator, ``add``.
 
     ``placement`` is a registered name (``"in-process"``, ``"process"``, ``"docker"``, ...),
-    a :class:`~multicosim.placement.Placement`, or None for the fidelity's default (this
+    a [`Placement`][multicosim.placement.Placement], or None for the fidelity's default (this
     process at low fidelity, local processes above). ``seed`` fixes every random source;
     ``realtime`` paces simulated time to wall time (None: as fast as possible); ``run_dir``
     keeps the components' logs there.

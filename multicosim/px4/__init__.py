@@ -1,22 +1,22 @@
 """The PX4 scenario: the paper's mission API on MuJoCo, flown by real PX4 or a built-in one.
 
-::
+```python
+import multicosim.px4 as px4
 
-    import multicosim.px4 as px4
+world = px4.WorldConfig()                                   # the paper's px4.Gazebo()
+simulator = px4.PX4(world, fidelity="low")             # adds the world and PX4 itself
+with simulator.start() as simulation:
+    result = simulation.firmware.send(
+        px4.Configuration([px4.Waypoint(lat=47.3980, lon=8.5460, alt=25.0)])
+    )
+assert result.completed
 
-    world = px4.WorldConfig()                                   # the paper's px4.Gazebo()
-    simulator = px4.PX4(world, fidelity="low")             # adds the world and PX4 itself
-    with simulator.start() as simulation:
-        result = simulation.firmware.send(
-            px4.Configuration([px4.Waypoint(lat=47.3980, lon=8.5460, alt=25.0)])
-        )
-    assert result.completed
+# Real PX4 SITL (a px4_sitl_default build) flying the same world, in lockstep:
+px4.PX4(world, fidelity="medium", firmware=px4.SITL(binary="build/px4_sitl_default/bin/px4"))
 
-    # Real PX4 SITL (a px4_sitl_default build) flying the same world, in lockstep:
-    px4.PX4(world, fidelity="medium", firmware=px4.SITL(binary="build/px4_sitl_default/bin/px4"))
-
-    # Real PX4 as the top level of a falsifying search (see multicosim.search.falsify):
-    levels = ("low", "medium", px4.sitl_level(simulate, px4.SITL(binary=...)))
+# Real PX4 as the top level of a falsifying search (see multicosim.search.falsify):
+levels = ("low", "medium", px4.sitl_level(simulate, px4.SITL(binary=...)))
+```
 
 ``import multicosim.px4`` loads neither MuJoCo nor pymavlink; they load when a simulation
 starts.

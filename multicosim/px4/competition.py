@@ -1,35 +1,38 @@
 """The UAV Testing Competition's test cases (SBFT and ICST): read, written and scored as it does.
 
 The competition's tools (its runner, Aerialist, and the test generators built on it) write a
-test case as YAML::
+test case as YAML:
 
-    drone:
-      port: ros                        # where their drone listens: not used here
-      params_file: mission-params.csv  # PX4 parameters, "NAME, value" lines (or params: {...})
-      mission_file: mission2.plan      # a QGroundControl plan
-    simulation:
-      simulator: ros                   # their simulator, speed, headless: not used here
-      obstacles:                       # boxes: size, centre on the ground, rotation
-      - size: {l: 10, w: 5, h: 20}
-        position: {x: 10, y: 20, z: 0, r: 0}
-    test:                              # (or mission:)
-      commands_file: mission-commands.csv   # timestamp,mode,x,y,z,r; mode 3 starts the mission
+```yaml
+drone:
+  port: ros                        # where their drone listens: not used here
+  params_file: mission-params.csv  # PX4 parameters, "NAME, value" lines (or params: {...})
+  mission_file: mission2.plan      # a QGroundControl plan
+simulation:
+  simulator: ros                   # their simulator, speed, headless: not used here
+  obstacles:                       # boxes: size, centre on the ground, rotation
+  - size: {l: 10, w: 5, h: 20}
+    position: {x: 10, y: 20, z: 0, r: 0}
+test:                              # (or mission:)
+  commands_file: mission-commands.csv   # timestamp,mode,x,y,z,r; mode 3 starts the mission
+```
 
 Their frame is PX4's local one: ``x`` metres north and ``y`` east of where the vehicle
 starts, ``z`` 0 (an obstacle stands on the ground, ``h`` tall); the position is the box's
 centre, ``l`` lies along ``x`` and ``w`` along ``y`` before the box turns ``r`` degrees from
-``x`` towards ``y`` (clockwise from north): our :class:`~multicosim.physics.Box` with
+``x`` towards ``y`` (clockwise from north): our [`Box`][multicosim.physics.Box] with
 ``north=x, east=y, length=l, width=w, height=h, yaw=r``. A ``shape: cylinder`` has radius
 ``size.r``. Paths are relative to the folder the tools ran in, which is the case's folder or
 one above it: a path is looked for beside the file, then in each folder above it.
 
 Scoring is the competition's: the minimum horizontal distance from the vehicle's estimated
 track (a line through its positions, as wide as the vehicle) to each obstacle's footprint;
-a collision is a hard fail, a minimum under :data:`SAFE_DISTANCE` a soft fail, and each
-simulation earns :data:`POINTS` by its minimum. What their commands can do beyond starting
-the mission (mode changes at set times, manual setpoints), and their wind and home position,
-are refused with the field named: the built-in autopilot and real PX4 fly the plan from the
-start.
+a collision is a hard fail, a minimum under
+[`SAFE_DISTANCE`][multicosim.px4.competition.SAFE_DISTANCE] a soft fail, and each simulation earns
+[`POINTS`][multicosim.px4.competition.POINTS] by its minimum. What their commands can do beyond
+starting the mission (mode changes at set times, manual setpoints), and their wind and home
+position, are refused with the field named: the built-in autopilot and real PX4 fly the plan from
+the start.
 """
 
 from __future__ import annotations
@@ -393,9 +396,10 @@ def distances(
     """The competition's distance from the flight to each obstacle (m), in their order.
 
     The vehicle's estimated positions (``north``/``east``, as the competition reads PX4's
-    local position) make a line as wide as :data:`VEHICLE_WIDTH`; the distance is the
-    horizontal one from that line to the obstacle's footprint, 0 where they meet (flying
-    over an obstacle counts as meeting it, as in the competition).
+    local position) make a line as wide as
+    [`VEHICLE_WIDTH`][multicosim.px4.competition.VEHICLE_WIDTH]; the distance is the horizontal one
+    from that line to the obstacle's footprint, 0 where they meet (flying over an obstacle counts as
+    meeting it, as in the competition).
     """
     track = [(s.north, s.east) for s in trajectory]
     if len(track) == 1:
@@ -425,7 +429,8 @@ class Score:
 
     @property
     def point(self) -> int:
-        """The simulation's points: 5, 2, 1 or 0 by :data:`POINTS`."""
+        """The simulation's points: 5, 2, 1 or 0 by
+        [`POINTS`][multicosim.px4.competition.POINTS]."""
         return next((p for limit, p in POINTS if self.min_distance < limit), 0)
 
     @property
@@ -442,5 +447,6 @@ def score(
     collided: bool,
     home: tuple[float, float, float] = DEFAULT_HOME,
 ) -> Score:
-    """Score a flight among ``obstacles`` as the competition does (see :class:`Score`)."""
+    """Score a flight among ``obstacles`` as the competition does (see
+    [`Score`][multicosim.px4.competition.Score])."""
     return Score(tuple(distances(trajectory, obstacles, home)), collided)

@@ -6,15 +6,15 @@ it streams and their rates, its parameters (names, types, values; with ``metadat
 own parameter metadata, read over MAVLink FTP: defaults and ranges), its answer to each
 command in each state, its flight modes, the mission protocol (mission items in the
 mission frame, DO_JUMP and MISSION_SET_CURRENT onto it, geofence and rally lists, the legacy
-MISSION_REQUEST), which mission items it takes in which frame (:mod:`.conformance_items`),
+MISSION_REQUEST), which mission items it takes in which frame (``conformance_items``),
 and what flying does: a takeoff's altitude held, DO_REPOSITION in Hold,
-offboard setpoints that stop and one far away (:mod:`.conformance_flight`). The questions
-are asked with a :class:`~.probe.Probe`, on the autopilot's simulated clock.
+offboard setpoints that stop and one far away (``conformance_flight``). The questions
+are asked with a ``Probe``, on the autopilot's simulated clock.
 
 ``scripts/record_px4.py`` records real PX4 SITL flying our world into
 ``multicosim/px4/data/px4-<version>.json``; the built-in autopilot's parameter table and
 stream rates come from that file, and ``tests/px4/test_conformance.py`` records the built-in
-autopilot the same way and compares with :func:`differences`.
+autopilot the same way and compares with ``differences``.
 """
 
 from __future__ import annotations
@@ -281,8 +281,8 @@ def record(
 
     ``peer``: the autopilot's own UDP port, to say hello to first (PX4's API link).
     ``timeout``: wall seconds any one wait may take; ``alive``: whether the autopilot still
-    runs (a wait raises :class:`~.probe.AutopilotStalled` once it does not, or once its
-    clock has not moved for :data:`~.probe.STALL` wall seconds).
+    runs (a wait raises ``AutopilotStalled`` once it does not, or once its
+    clock has not moved for ``STALL`` wall seconds).
     """
     link = Probe(port, timeout, peer, alive=alive)
     try:

@@ -1,11 +1,11 @@
 """The conformance recording's questions in the air, and how their answers are compared.
 
-After the questions on the ground (:mod:`.conformance`), :func:`flight` flies: a takeoff to
+After the questions on the ground (``conformance``), ``flight`` flies: a takeoff to
 10 m and the altitude held; DO_REPOSITION 30 m away while holding, without and with the
 change-mode flag; offboard setpoints that stop (COM_OF_LOSS_T, then COM_OBL_RC_ACT's mode);
 an offboard position setpoint 200 m away (the horizontal speed it is flown at:
-MPC_XY_VEL_MAX's). Every wait is in the autopilot's simulated time. :func:`differences`
-compares what was measured within :data:`TOLERANCES`, and everything else exactly.
+MPC_XY_VEL_MAX's). Every wait is in the autopilot's simulated time. ``differences``
+compares what was measured within ``TOLERANCES``, and everything else exactly.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """The conformance recording's mission items: which ones PX4 takes, in which frame.
 
-:func:`item_answers` uploads, one at a time, a two-item mission (a takeoff, then the item)
+``item_answers`` uploads, one at a time, a two-item mission (a takeoff, then the item)
 for every mission command PX4 v1.15's MAVLink mission manager parses and for its near
 neighbours it does not, each in a global frame and in the mission frame, and records PX4's
 MISSION_ACK: accepted, unsupported, or a parameter refused. (PX4 v1.15 checks a mission's
@@ -58,7 +58,7 @@ def item_key(command: int, frame: int) -> str:
 
 
 def item_answers(link: Probe) -> dict[str, int | None]:
-    """For each of :data:`ITEM_QUESTIONS`, the MISSION_ACK type of its upload."""
+    """For each of ``ITEM_QUESTIONS``, the MISSION_ACK type of its upload."""
     home = link.wait(lambda m: m.get_type() == "HOME_POSITION", 5.0)
     if home is None:
         link.command("REQUEST_MESSAGE", MSG_HOME_POSITION)

@@ -1,5 +1,5 @@
-"""PX4's sensors (its HIL messages) as :mod:`multicosim.attacks` corrupts them: what each
-reading's quantities are and how an offset moves them (registered on import).
+"""PX4's sensors (its HIL messages) as [`multicosim.attacks`][multicosim.attacks] corrupts them:
+what each reading's quantities are and how an offset moves them (registered on import).
 
 The same adapters work on both wires (native Structs, packed MAVLink frames).
 """

@@ -2,9 +2,9 @@
 flies each, as the built-in autopilot does it.
 
 The frames are what real PX4 v1.15.4 acknowledges (its MAVLink mission manager, recorded by
-:mod:`.conformance_items` into the conformance file); anything else it refuses with
+``conformance_items`` into the conformance file); anything else it refuses with
 ``MAV_MISSION_UNSUPPORTED`` (or ``MAV_MISSION_UNSUPPORTED_FRAME`` for a frame it has no use
-for). The PX4 guide's table of items is checked against :data:`ITEMS`.
+for). The PX4 guide's table of items is checked against ``ITEMS``.
 """
 
 from __future__ import annotations
@@ -94,7 +94,7 @@ def taken(command: int, frame: Frame, param1: float) -> int:
 
 
 def table() -> str:
-    """:data:`ITEMS` as the PX4 guide's Markdown table: global-frame items first."""
+    """``ITEMS`` as the PX4 guide's Markdown table: global-frame items first."""
     rows = ["| Item | Frame | How it is flown |", "| --- | --- | --- |"]
     for command, item in sorted(ITEMS.items(), key=lambda kv: (kv[1].frames[0], kv[0])):
         name = command_name(command).removeprefix("MAV_CMD_")

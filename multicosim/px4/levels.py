@@ -1,16 +1,16 @@
 """Real PX4 as a rung of a falsifying search: search cheaply, confirm on the real firmware.
 
-::
+```python
+import multicosim.px4 as px4
+from multicosim.search.falsify import falsify
 
-    import multicosim.px4 as px4
-    from multicosim.search.falsify import falsify
+def simulate(sample, fidelity, seed, firmware=None):
+    simulator = px4.PX4(fidelity=fidelity, seed=seed, firmware=firmware)
+    ...                                       # injectors from the sample, fly, trajectory
 
-    def simulate(sample, fidelity, seed, firmware=None):
-        simulator = px4.PX4(fidelity=fidelity, seed=seed, firmware=firmware)
-        ...                                       # injectors from the sample, fly, trajectory
-
-    real = px4.sitl_level(simulate, px4.SITL(binary="../shared/px4-sitl/bin/px4"))
-    falsify(simulate, requirement, space, levels=("low", "medium", real))
+real = px4.sitl_level(simulate, px4.SITL(binary="../shared/px4-sitl/bin/px4"))
+falsify(simulate, requirement, space, levels=("low", "medium", real))
+```
 
 The search runs ``simulate`` with the built-in autopilot; a violation that medium fidelity
 confirms is flown once more with real PX4 SITL on the same MuJoCo world. Real PX4 runs its
@@ -62,7 +62,8 @@ def sitl_level(
     name: str = SITL_LEVEL,
     fidelity: Fidelity = "medium",
 ) -> Level:
-    """A :class:`multicosim.search.falsify.Level` that runs a sample on real PX4 SITL.
+    """A [`multicosim.search.falsify.Level`][multicosim.search.falsify.Level] that runs a sample on
+    real PX4 SITL.
 
     ``simulate(sample, fidelity, seed, firmware=None)`` is the search's own function with a
     ``firmware`` keyword that it passes to ``px4.PX4(..., firmware=firmware)``; this level

@@ -1,9 +1,9 @@
 """A ground station's MAVLink link to an autopilot, timed on the autopilot's own clock.
 
-:class:`Probe` is what :mod:`.conformance` asks its questions with: a pymavlink UDP link
+``Probe`` is what ``conformance`` asks its questions with: a pymavlink UDP link
 whose waits count the autopilot's simulated time (its ``time_boot_ms``), so that a sped-up or
 slowed-down autopilot is asked the same way. A wait always ends: on simulated time, after
-``timeout`` wall seconds, or with :class:`AutopilotStalled` once the autopilot's clock has
+``timeout`` wall seconds, or with ``AutopilotStalled`` once the autopilot's clock has
 not moved for ``stall`` wall seconds or the autopilot has exited.
 """
 
@@ -164,7 +164,7 @@ class Probe:
         """The first message for which ``ok(m)``, within ``sim_s`` simulated seconds.
 
         None once ``sim_s`` have passed on the autopilot's clock (or ``timeout`` wall
-        seconds, on a clock that crawls); :class:`AutopilotStalled` when that clock has not
+        seconds, on a clock that crawls); ``AutopilotStalled`` when that clock has not
         moved for ``stall`` wall seconds: a lockstep autopilot whose simulation stopped
         sends no later time, and every later question would wait its full timeout.
         """
@@ -203,7 +203,7 @@ class Probe:
         )
 
     def command_int(self, name: str, frame: int, *params: float, sim_s: float = 1.0) -> int | None:
-        """COMMAND_INT ``name`` (params 5 and 6 the integers x and y), as :meth:`command`."""
+        """COMMAND_INT ``name`` (params 5 and 6 the integers x and y), as ``command``."""
         p = [*params, *[0.0] * (7 - len(params))]
         x, y = int(p[4]), int(p[5])
         return self._ask(
@@ -260,7 +260,7 @@ class Probe:
         return values
 
     def setpoints(self, pos: tuple[float, float, float]) -> Callable[[], None]:
-        """A sender of offboard position setpoints at ``pos`` (local NED), for :attr:`stream`."""
+        """A sender of offboard position setpoints at ``pos`` (local NED), for ``stream``."""
         mask = TARGET_IGNORE_VELOCITY | TARGET_IGNORE_ACCEL | TARGET_IGNORE_YAW
         mask |= TARGET_IGNORE_YAW_RATE
 

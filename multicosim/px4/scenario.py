@@ -104,7 +104,7 @@ class WorldComponent:
     """The quadrotor world as a component (point mass at low fidelity, MuJoCo above).
 
     ``placement`` is where it runs (a registered name, a Placement, or None: the fidelity's
-    default); ``wire`` how its sensors travel (None: the fidelity's, :func:`wire_of`; real
+    default); ``wire`` how its sensors travel (None: the fidelity's, ``wire_of``; real
     PX4's bridge takes them native).
     """
 
@@ -187,7 +187,7 @@ class PX4Component:
     """PX4 plus its ground station, for any lockstep simulator (the paper's ``PX4Component``).
 
     ``firmware`` picks the autopilot: None for the built-in PX4-compatible one, or a
-    :class:`~multicosim.px4.SITL` for real PX4 SITL flying the world. ``world`` tells it
+    [`SITL`][multicosim.px4.SITL] for real PX4 SITL flying the world. ``world`` tells it
     where home is and which topics carry the sensors (``topics`` overrides the autopilot's
     side only, to read from an injector); ``params`` sets PX4 parameters (``MPC_XY_CRUISE``,
     ``NAV_ACC_RAD``, ...); ``geofence`` bounds missions. ``placement`` is where the
@@ -302,7 +302,7 @@ class PX4Component:
 
     def trace_options(self, *, member: bool = False, start: Home | None = None) -> TraceOptions:
         """Its trace options: types, decoders, Foxglove channels (``member``, ``start``: as a
-        fleet's vehicle, see :func:`~multicosim.mavlink.trace.mission_trace`)."""
+        fleet's vehicle, see ``mission_trace``)."""
         from .trace import trace_options
 
         options = trace_options(self.spec, self.world, self.name, member=member, start=start)
@@ -465,7 +465,8 @@ class PX4(Scenario[PX4Simulation]):
     def inject_faults(
         self, sensor: str, models: Sequence[Model], *, name: str | None = None
     ) -> InjectorComponent:
-        """Put an injector with ``models`` on ``sensor`` (see :func:`multicosim.attacks.inject`).
+        """Put an injector with ``models`` on ``sensor`` (see
+        [`multicosim.attacks.inject`][multicosim.attacks.inject]).
 
         The autopilot reads the sensor from ``<topic>/attacked``, which the injector fills
         from the world's topic; the injector runs where the world does.

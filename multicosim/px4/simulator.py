@@ -5,7 +5,7 @@ sensors: its clock is the ``time_usec`` of each HIL_SENSOR, and it answers every
 with HIL_ACTUATOR_CONTROLS once its controllers have run on it (lockstep). It also asks for
 HIL_STATE_QUATERNION (ground truth) with a SET_MESSAGE_INTERVAL command.
 
-:class:`HilTcpBridge` is that simulator end for our worlds, as a participant stepped right
+``HilTcpBridge`` is that simulator end for our worlds, as a participant stepped right
 after the world: each step it sends what the world (or an injector in front of PX4) published
 on the sensor topics, waits for PX4's motor outputs and publishes them on the actuator topic,
 so the world applies them at its next step. Before PX4's first answer (it is still starting

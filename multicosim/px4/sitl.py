@@ -2,14 +2,14 @@
 
 PX4's SITL build (``px4_sitl_default``) flies our MuJoCo quadrotor the way it flies Gazebo's:
 its ``simulator_mavlink`` module connects to
-:class:`~multicosim.px4.simulator.HilTcpBridge` (TCP 4560 + instance, lockstep), and its
+``HilTcpBridge`` (TCP 4560 + instance, lockstep), and its
 MAVLink API link is carried to the same ground station that drives our built-in autopilot
-(:mod:`multicosim.mavlink.gcs`), so ``simulation.firmware.send`` flies a mission on either.
+(``multicosim.mavlink.gcs``), so ``simulation.firmware.send`` flies a mission on either.
 
-Where PX4 comes from is a :class:`SITL`: a ``px4`` binary with its ``etc`` ROMFS beside it
-(``../shared/px4-sitl`` or a ``build/px4_sitl_default`` tree) run as a local process, or an
-image (``multicosim images build --px4-dir DIR``) run as a container on the simulation's
-network. Each PX4 gets:
+Where PX4 comes from is a [`SITL`][multicosim.px4.sitl.SITL]: a ``px4`` binary with its ``etc``
+ROMFS beside it (``../shared/px4-sitl`` or a ``build/px4_sitl_default`` tree) run as a local
+process, or an image (``multicosim images build --px4-dir DIR``) run as a container on the
+simulation's network. Each PX4 gets:
 
 * its own instance number (claimed by binding its simulator port; the other ports checked
   free), so parallel runs (``pytest -n 2``) never share ports, lock files or sockets;
@@ -365,7 +365,7 @@ def container_command(
 
 
 class PX4Launch:
-    """Real PX4 for the firmware launcher (:func:`multicosim.placement.firmware.launch`).
+    """Real PX4 for the firmware launcher (``multicosim.placement.firmware.launch``).
 
     Claims an instance (its simulator port bound, its UDP ports and lock file checked free)
     where PX4 shares this machine's ports, or instance 0 on a network of its own; starts the

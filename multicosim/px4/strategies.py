@@ -2,13 +2,16 @@
 
 Everything generated is valid by construction (inside the geofence around home, sensible
 physics options), so a property test spends its examples on behaviour, not on input
-validation. Ranges are ``(low, high)`` tuples, as in :mod:`multicosim.search.strategies`::
+validation. Ranges are ``(low, high)`` tuples, as in
+[`multicosim.search.strategies`][multicosim.search.strategies]:
 
-    from hypothesis import given
-    from multicosim.px4 import strategies as px4st
+```python
+from hypothesis import given
+from multicosim.px4 import strategies as px4st
 
-    @given(px4st.missions(count=(1, 3), altitude=(10.0, 30.0)))
-    def test_mission(config): ...
+@given(px4st.missions(count=(1, 3), altitude=(10.0, 30.0)))
+def test_mission(config): ...
+```
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """The PX4 scenario's trace options: which of its topics carry HIL messages, for
-:func:`multicosim.mavlink.trace.mission_trace` (the channels are described there).
+``multicosim.mavlink.trace.mission_trace`` (the channels are described there).
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ def trace_options(
 ) -> TraceOptions:
     """Types, decoders and Foxglove channels of a PX4 simulation (see the module docstring);
     ``name`` is the vehicle's, which its channels are under (``member``, ``start``: as a
-    fleet's vehicle, see :func:`~multicosim.mavlink.trace.mission_trace`)."""
+    fleet's vehicle, see ``mission_trace``)."""
     topics = world_topics(world)
     mavlink_wire = spec.wire == "mavlink"
     hil = {

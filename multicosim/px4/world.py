@@ -1,13 +1,13 @@
 """The physics world of the PX4 scenario: a participant publishing PX4's sensor messages.
 
-Two vehicle models, the same sensor messages (:class:`~multicosim.quadrotor.sensors.HilSensors`):
+Two vehicle models, the same sensor messages (``HilSensors``):
 
 * ``point_mass`` (low fidelity): a point mass whose velocity follows the autopilot's velocity
   setpoint with a first-order lag, ideal sensors; scalar math so a minute of flight costs
   milliseconds;
 * ``mujoco`` (medium and up, and what real PX4 flies): the shared MuJoCo world
-  (:class:`multicosim.physics.World`) with the quadrotor vehicle built from PX4's ``none_iris``
-  airframe, driven by the four motor outputs, with noisy sensors.
+  ([`multicosim.physics.World`][multicosim.physics.World]) with the quadrotor vehicle built from
+  PX4's ``none_iris`` airframe, driven by the four motor outputs, with noisy sensors.
 
 Both read HIL_ACTUATOR_CONTROLS from the actuator topic and publish HIL_SENSOR, HIL_GPS and
 the ground truth.

@@ -2,10 +2,10 @@
 the MuJoCo body and the autopilots' mixers, its vehicle plug-in for the world, and its sensor
 suite (MAVLink's HIL messages with PX4's Gazebo sensor noise).
 
-* :mod:`.airframe`: the rotors, mass and inertia (no MuJoCo import: the mixers read it);
-* :mod:`.vehicle`: :class:`QuadrotorVehicle`, the body in the MuJoCo world;
-* :mod:`.sensors`: :class:`HilSensors`, what the world publishes from the vehicle's state;
-* :mod:`.topics`: the topics the world publishes and reads.
+* ``airframe``: the rotors, mass and inertia (no MuJoCo import: the mixers read it);
+* ``vehicle``: ``QuadrotorVehicle``, the body in the MuJoCo world;
+* ``sensors``: ``HilSensors``, what the world publishes from the vehicle's state;
+* ``topics``: the topics the world publishes and reads.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """PX4's simulated sensors: what a simulator of PX4 SITL sends it, from the vehicle's state.
 
 Every quadrotor world (the low-fidelity point mass and the MuJoCo quadrotor) hands its true
-state to :class:`HilSensors` once per period; it publishes what PX4's ``simulator_mavlink``
+state to ``HilSensors`` once per period; it publishes what PX4's ``simulator_mavlink``
 expects (and our autopilot reads):
 
 * ``HIL_SENSOR`` every period with the IMU (specific force and angular rate, body FRD), and
@@ -9,7 +9,7 @@ expects (and our autopilot reads):
   one combined message where the sensor topics coincide, as PX4 SITL receives it;
 * ``HIL_GPS`` at 10 Hz: WGS84 position and NED velocity with PX4's Gazebo GNSS error (a
   bias of millimetres that decorrelates within a quarter second, velocity noise);
-* :class:`~multicosim.mavlink.hil.Truth` at 20 Hz: the world's ground truth, attitude and
+* ``Truth`` at 20 Hz: the world's ground truth, attitude and
   specific force included.
 
 Noise is scaled by ``WorldConfig.noise`` (0: ideal sensors) and drawn from the component's

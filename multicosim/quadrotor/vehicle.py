@@ -2,10 +2,10 @@
 
 ``python -m multicosim participant multicosim.px4.world:world --config JSON`` runs it as a
 process. It reads HIL_ACTUATOR_CONTROLS (four motor outputs in [0, 1] while armed) and
-publishes PX4's sensor messages through :class:`~multicosim.quadrotor.sensors.HilSensors`.
+publishes PX4's sensor messages through ``HilSensors``.
 
 MuJoCo's frames are east-north-up (world) and forward-left-up (body); PX4's are
-north-east-down and forward-right-down: :func:`~multicosim.physics.frames.ned_state`
+north-east-down and forward-right-down: ``ned_state``
 converts the vehicle's state once per period.
 """
 
@@ -33,7 +33,7 @@ __all__ = ["QuadrotorVehicle"]
 
 
 class QuadrotorVehicle:
-    """A quadrotor built from an :class:`~multicosim.quadrotor.airframe.Airframe` (PX4's none_iris).
+    """A quadrotor built from an ``Airframe`` (PX4's none_iris).
 
     Motor outputs drive the rotors only while the HIL_ACTUATOR_CONTROLS mode says armed
     (as PX4's simulators do); sensors come out on the world's topics in ``wire`` form, every

@@ -5,12 +5,14 @@ node, and this process running on a node of the cluster (its nodes reach the sim
 coordinator here). Ray is imported when a simulation joins the cluster (or the placement is
 prepared), not when this package or the placement's name is.
 
-* :mod:`.placement`: :class:`Ray`, the placement, and the components it makes;
-* :mod:`.simulator`: :class:`RaySimulator` and what it hands its components;
-* :mod:`.node`: the nodes of components on the cluster, watched through their actors;
-* :mod:`.host`: the actor that runs a component's program on its node;
-* :mod:`.cluster`: joining the cluster;
-* :mod:`.localcluster`: :class:`LocalCluster`, a cluster of several nodes on this machine.
+* [`placement`][multicosim.placement]: [`Ray`][multicosim.ray.Ray], the placement, and the
+  components it makes;
+* ``simulator``: [`RaySimulator`][multicosim.ray.RaySimulator] and what it hands its components;
+* ``node``: the nodes of components on the cluster, watched through their actors;
+* ``host``: the actor that runs a component's program on its node;
+* ``cluster``: joining the cluster;
+* ``localcluster``: [`LocalCluster`][multicosim.ray.LocalCluster], a cluster of several nodes on
+  this machine.
 """
 
 from __future__ import annotations

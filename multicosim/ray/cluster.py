@@ -62,7 +62,7 @@ def check_address(address: object, field: str = "address") -> str | None:
 
 
 def connect(address: str | None) -> ModuleType:
-    """The ``ray`` module, connected to the cluster at ``address`` (see :func:`check_address`)
+    """The ``ray`` module, connected to the cluster at ``address`` (see ``check_address``)
     unless this process is connected already (that connection is used as it is).
 
     PlacementUnavailableError where Ray is not installed or no cluster can be joined.

@@ -1,9 +1,9 @@
 """The Ray actor that runs one component's program on its node, and answers for it.
 
-:class:`ComponentHost` is what the ``ray`` placement creates for each participant and
-firmware: on the node Ray chose, it starts the component's program (``python -m multicosim
-participant ...`` or ``... serve ...``) as a local process there, with the environment the
-driver gives it, and then answers the driver's questions (has it exited? its output?) until
+[`ComponentHost`][multicosim.ray.host.ComponentHost] is what the ``ray`` placement creates for each
+participant and firmware: on the node Ray chose, it starts the component's program (``python -m
+multicosim participant ...`` or ``... serve ...``) as a local process there, with the environment
+the driver gives it, and then answers the driver's questions (has it exited? its output?) until
 it is told to stop it. Nothing here imports Ray: the class becomes an actor where it is used.
 
 The program is killed with its actor (SIGKILL once the actor's process has gone, on Linux),

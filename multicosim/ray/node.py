@@ -1,10 +1,11 @@
 """A component's program on a Ray node, as this process sees it: watched, logged, stopped.
 
-:class:`RemoteProgram` is the handle of one :class:`~.host.ComponentHost` actor: what the
-coordinator polls while it waits (has the program exited? its output?), asking the actor
+``RemoteProgram`` is the handle of one [`ComponentHost`][multicosim.ray.host.ComponentHost] actor:
+what the coordinator polls while it waits (has the program exited? its output?), asking the actor
 with a timeout each time, and what stops it (the program, then the actor, until Ray confirms
-the actor is gone). :class:`RayNode` is a participant's node; :class:`RayFirmwareNode` a
-firmware's, reached over ZeroMQ at its node's address.
+the actor is gone). [`RayNode`][multicosim.ray.node.RayNode] is a participant's node;
+[`RayFirmwareNode`][multicosim.ray.node.RayFirmwareNode] a firmware's, reached over ZeroMQ at its
+node's address.
 """
 
 from __future__ import annotations
@@ -56,7 +57,7 @@ class RemoteProgram:
         self.name = name
         self.actor = actor
         self.log_path = log_path
-        """Where :meth:`restore_log` (``simulation.logs()``) and stopping write its output."""
+        """Where ``restore_log`` (``simulation.logs()``) and stopping write its output."""
         self._ray = ray
         self.pid = 0
         """The program's process id on its node (once started)."""
@@ -72,7 +73,7 @@ class RemoteProgram:
 
     @property
     def placed(self) -> Placed:
-        """Where its program was started (once :meth:`start` has returned)."""
+        """Where its program was started (once ``start`` has returned)."""
         if self._placed is None:
             raise RuntimeError(f"{self.name} has not been started")
         return self._placed
@@ -244,7 +245,7 @@ class RayNode:
 
     @property
     def actor(self) -> Any:
-        """Its Ray actor (a :class:`~.host.ComponentHost`)."""
+        """Its Ray actor (a [`ComponentHost`][multicosim.ray.host.ComponentHost])."""
         return self.handle.actor
 
     @property
@@ -261,7 +262,7 @@ class RayNode:
         return self.handle.log_tail(lines)
 
     def diagnose(self) -> Problem | None:
-        """What is known to be wrong with it (see :meth:`RemoteProgram.diagnose`)."""
+        """What is known to be wrong with it (see ``RemoteProgram.diagnose``)."""
         return self.handle.diagnose()
 
     def stop(self) -> None:
@@ -290,7 +291,8 @@ class RayNode:
 class RayFirmwareNode(ProcessFirmwareNode[MsgT, ReplyT]):
     """A firmware on a Ray node: a CommunicationNode over ZeroMQ at its node's address.
 
-    ``program`` is its :class:`RayNode` (output, exit code, the node it runs on).
+    ``program`` is its [`RayNode`][multicosim.ray.node.RayNode] (output, exit code, the node it runs
+    on).
     """
 
     def __init__(

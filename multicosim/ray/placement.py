@@ -2,11 +2,12 @@
 
 The simulation's clock, its coordinator and the in-process parts (a ground station, a
 trace recorder) stay in this process, which must itself be a driver on a node of the
-cluster; each participant and firmware gets an actor (:class:`~.host.ComponentHost`) on
-the node Ray places it on, which runs the same program a local process would (``python -m
-multicosim participant ...``, ``... serve ...``) with the same environment, so that a seed
-gives the same run here as on the ``process`` placement. Ray spreads the actors over the
-nodes unless told otherwise (``strategy``, or per component ``options``).
+cluster; each participant and firmware gets an actor
+([`ComponentHost`][multicosim.ray.host.ComponentHost]) on the node Ray places it on, which runs the
+same program a local process would (``python -m multicosim participant ...``, ``... serve ...``)
+with the same environment, so that a seed gives the same run here as on the ``process`` placement.
+Ray spreads the actors over the nodes unless told otherwise (``strategy``, or per component
+``options``).
 
 External programs (SITL builds, ``program(spec)``) are not run on Ray nodes: use the
 ``process`` or ``docker`` placement for real firmware.
@@ -218,9 +219,11 @@ class Ray:
     ``strategy`` (``"SPREAD"``: over the nodes; ``"DEFAULT"``: Ray's packing);
     ``options`` sets Ray actor options per component name, e.g. ``{"world": {"resources":
     {"big": 1}}}`` to put the world on the node started with that resource. An actor waits
-    up to ``place_timeout`` seconds for a node with room for it::
+    up to ``place_timeout`` seconds for a node with room for it:
 
-        rover.Rover(fidelity="medium", placement=Ray("10.0.0.5:6379"))
+    ```python
+    rover.Rover(fidelity="medium", placement=Ray("10.0.0.5:6379"))
+    ```
     """
 
     name = "ray"

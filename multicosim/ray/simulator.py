@@ -73,7 +73,7 @@ def _collect(node: object, found: list[RayNode]) -> None:
 class RaySimulator(LocalSimulatorBase[RayEnvironment]):
     """The Ray backend: components as actors on a cluster, stepped in lockstep from here.
 
-    ``address`` is the cluster to join when it starts (see :class:`~multicosim.ray.Ray`;
+    ``address`` is the cluster to join when it starts (see [`Ray`][multicosim.ray.Ray];
     a connection this process has already is used as it is). ``seed``, ``realtime``,
     ``run_dir`` and ``step_timeout`` mean what they mean for ProcessSimulator; in-process
     components may be mixed in.

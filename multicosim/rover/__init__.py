@@ -1,14 +1,17 @@
 """The rover scenario: an Ackermann rover driven by a finite-state-automaton controller.
 
-The paper's second case study. :class:`Rover` is a Simulator that builds the world and the
-controller for a fidelity level; :data:`controller` is the firmware (``@multicosim.firmware``)
-that turns a :class:`Mission` into a :class:`Trajectory`::
+The paper's second case study. [`Rover`][multicosim.rover.Rover] is a Simulator that builds the
+world and the controller for a fidelity level; [`controller`][multicosim.rover.controller] is the
+firmware (``@multicosim.firmware``) that turns a [`Mission`][multicosim.rover.Mission] into a
+[`Trajectory`][multicosim.rover.Trajectory]:
 
-    import multicosim.rover as rover
+```python
+import multicosim.rover as rover
 
-    simulation = rover.Rover(fidelity="medium").start()
-    trajectory = simulation.controller.send(rover.Mission(speed=5.0))
-    simulation.stop()
+simulation = rover.Rover(fidelity="medium").start()
+trajectory = simulation.controller.send(rover.Mission(speed=5.0))
+simulation.stop()
+```
 
 Importing this package does not import MuJoCo (the low-fidelity world is kinematic).
 """

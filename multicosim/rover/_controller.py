@@ -1,7 +1,8 @@
 """The rover controller firmware: the automaton in a control loop on the simulated clock.
 
 ``python -m multicosim serve multicosim.rover:controller --port {port}`` serves it; each
-:class:`Mission` sent to it is flown to the end and answered with its :class:`Trajectory`.
+[`Mission`][multicosim.rover._controller.Mission] sent to it is flown to the end and answered with
+its [`Trajectory`][multicosim.rover._controller.Trajectory].
 """
 
 from __future__ import annotations

@@ -1,12 +1,12 @@
 """The rover scenario as a Simulator: world + FSA controller at a chosen fidelity.
 
-::
+```python
+import multicosim.rover as rover
 
-    import multicosim.rover as rover
-
-    simulation = rover.Rover(fidelity="medium").start()
-    trajectory = simulation.controller.send(rover.Mission(speed=5.0))
-    simulation.stop()
+simulation = rover.Rover(fidelity="medium").start()
+trajectory = simulation.controller.send(rover.Mission(speed=5.0))
+simulation.stop()
+```
 
 Fidelity picks the models, the placement picks where they run:
 
@@ -231,7 +231,8 @@ class Rover(Scenario[RoverSimulation]):
     def inject_faults(
         self, sensor: str, models: Sequence[Model], *, name: str | None = None
     ) -> InjectorComponent:
-        """Put an injector with ``models`` on ``sensor`` (see :func:`multicosim.attacks.inject`).
+        """Put an injector with ``models`` on ``sensor`` (see
+        [`multicosim.attacks.inject`][multicosim.attacks.inject]).
 
         The world publishes the sensor on ``<topic>/raw`` and the injector, placed as the
         world is, republishes it on the topic the controller reads.

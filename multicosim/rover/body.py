@@ -1,7 +1,7 @@
 """The rover in MuJoCo: the vehicle plug-in of the world and its component factory.
 
 ``python -m multicosim participant multicosim.rover.body:rover_world --config JSON`` runs it as
-a process; JSON is a :class:`multicosim.rover.RoverWorldConfig`.
+a process; JSON is a [`multicosim.rover.RoverWorldConfig`][multicosim.rover.RoverWorldConfig].
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ __all__ = ["RoverVehicle", "rover_world"]
 class RoverVehicle:
     """The four-wheel Ackermann rover of ``models/rover.xml``.
 
-    Reads :class:`~multicosim.rover.Command` from ``rover/command`` and publishes position,
+    Reads [`Command`][multicosim.rover.Command] from ``rover/command`` and publishes position,
     magnetometer, IMU and wheel odometry, with the configured white noise.
     """
 

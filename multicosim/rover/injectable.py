@@ -1,5 +1,5 @@
-"""The rover's sensors as :mod:`multicosim.attacks` corrupts them: what each reading's
-quantities are and how an offset moves them (registered on import).
+"""The rover's sensors as [`multicosim.attacks`][multicosim.attacks] corrupts them: what each
+reading's quantities are and how an offset moves them (registered on import).
 
 Positions are metres east/north/up; a heading offset rotates the magnetometer's field.
 """

@@ -1,17 +1,18 @@
 """Hypothesis strategies for rover missions, sensor noise and world configurations.
 
-::
+```python
+from hypothesis import given
+from multicosim.rover.strategies import missions
 
-    from hypothesis import given
-    from multicosim.rover.strategies import missions
+@given(missions(speed=(0.5, 4.0)))
+def test_mission(rover_simulation, mission): ...
+```
 
-    @given(missions(speed=(0.5, 4.0)))
-    def test_mission(rover_simulation, mission): ...
-
-Ranges are ``(low, high)`` tuples, as in :mod:`multicosim.search.strategies`, checked when the
-strategy is built (ConfigurationError names the argument). Every value a strategy draws is
-valid (it passes the types' own validation), the bounds keep missions short enough for a
-test suite, and each strategy shrinks towards the simple case: slow, no wait, no noise.
+Ranges are ``(low, high)`` tuples, as in
+[`multicosim.search.strategies`][multicosim.search.strategies], checked when the strategy is built
+(ConfigurationError names the argument). Every value a strategy draws is valid (it passes the types'
+own validation), the bounds keep missions short enough for a test suite, and each strategy shrinks
+towards the simple case: slow, no wait, no noise.
 """
 
 from __future__ import annotations

@@ -1,16 +1,17 @@
 """What a component sees of its simulation: step contexts, topics, simulated time.
 
-A component is written once against :class:`StepContext` (publish, subscribe, simulated time,
-seeded randomness) and runs unchanged in-process, in a local process or in a container:
-only the link to the scheduler differs (a direct call or a ZeroMQ socket).
+A component is written once against [`StepContext`][multicosim.runtime.context.StepContext]
+(publish, subscribe, simulated time, seeded randomness) and runs unchanged in-process, in a local
+process or in a container: only the link to the scheduler differs (a direct call or a ZeroMQ
+socket).
 
 Two kinds of component exist:
 
 * a **participant** (the physics world, an injector): an object with ``period``, ``setup(ctx)``
   and ``step(ctx)``; the scheduler calls ``step`` every ``period`` of simulated time;
-* a **firmware** (a controller): a function decorated with :func:`firmware`, called with each
-  message sent to its node; it advances the clock itself with ``ctx.step()`` and its return
-  value is the reply.
+* a **firmware** (a controller): a function decorated with
+  [`firmware`][multicosim.runtime.firmware], called with each message sent to its node; it advances
+  the clock itself with ``ctx.step()`` and its return value is the reply.
 """
 
 from __future__ import annotations

@@ -1,12 +1,14 @@
 """Firmware and component programs: the ``@firmware`` decorator and the programs that run
 components outside the simulation's process.
 
-* :class:`Firmware` / :func:`firmware`: a handler called with each message sent to its node,
-  advancing the simulated clock itself, whose return value is the reply;
-* :func:`serve` (``multicosim serve MODULE:FIRMWARE --port N``) answers calls to a firmware;
-  :func:`run_participant` (``multicosim participant MODULE:FACTORY``) steps a participant;
-* :func:`load_target` and :func:`build_from_config` find a component by ``module:name`` and
-  build it from its JSON configuration.
+* [`Firmware`][multicosim.runtime.serve.Firmware] / [`firmware`][multicosim.runtime.serve.firmware]:
+  a handler called with each message sent to its node, advancing the simulated clock itself, whose
+  return value is the reply;
+* [`serve`][multicosim.runtime.serve.serve] (``multicosim serve MODULE:FIRMWARE --port N``) answers
+  calls to a firmware; [`run_participant`][multicosim.runtime.serve.run_participant] (``multicosim
+  participant MODULE:FACTORY``) steps a participant;
+* [`load_target`][multicosim.runtime.serve.load_target] and ``build_from_config`` find a component
+  by ``module:name`` and build it from its JSON configuration.
 """
 
 from __future__ import annotations
@@ -107,11 +109,13 @@ class Firmware(Generic[MsgT, ReplyT]):
 def firmware(
     *, msgtype: type[MsgT], period: float = 0.01, name: str | None = None
 ) -> Callable[[Callable[[MsgT, FirmwareContext], ReplyT]], Firmware[MsgT, ReplyT]]:
-    """Declare a firmware handler, the paper's component-side program::
+    """Declare a firmware handler, the paper's component-side program:
 
+    ```python
     @mcs.firmware(msgtype=Mission, period=0.02)
     def controller(mission: Mission, ctx: mcs.FirmwareContext) -> Trajectory:
         ...
+    ```
     """
     if not isinstance(msgtype, type):
         raise ConfigurationError("msgtype", msgtype, "a message type (a class)")

@@ -1,9 +1,10 @@
 """The component side of the lockstep: how a component's steps reach the scheduler.
 
-A component in its own process talks to the coordinator over ZeroMQ (:class:`Connection`,
-:class:`RemoteDriver`), watching its host so that it dies with it (:class:`HostWatch`); one in
-the simulation's process is stepped by direct calls (:class:`LocalDriver`,
-:class:`LocalParticipantLink`). Either way the component sees the same :class:`StepContext`.
+A component in its own process talks to the coordinator over ZeroMQ (``Connection``,
+``RemoteDriver``), watching its host so that it dies with it (``HostWatch``); one in
+the simulation's process is stepped by direct calls (``LocalDriver``,
+``LocalParticipantLink``). Either way the component sees the same
+[`StepContext`][multicosim.StepContext].
 """
 
 from __future__ import annotations
@@ -41,7 +42,7 @@ class Connection:
     """A component's socket to the coordinator (a DEALER whose identity is its token).
 
     ``own_process``: this process is the component (not a thread of the host), so it must
-    end when the host has gone, even in the middle of a step (see :class:`HostWatch`).
+    end when the host has gone, even in the middle of a step (see ``HostWatch``).
     """
 
     def __init__(
@@ -203,9 +204,9 @@ class RemoteDriver:
 class LocalDriver:
     """Drives an in-process firmware's clock by running the scheduler in the caller's thread.
 
-    After :meth:`limit`, the handler may take that long in wall time between two of its
+    After ``limit``, the handler may take that long in wall time between two of its
     steps (the time it takes the simulation to make progress), however long it runs in all:
-    a step after a longer wait raises NodeTimeoutError, and :attr:`deadline` moves on with
+    a step after a longer wait raises NodeTimeoutError, and ``deadline`` moves on with
     every step.
     """
 

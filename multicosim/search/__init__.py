@@ -1,5 +1,6 @@
 """Testing a system against its requirements: STL requirements and their robustness
-(:mod:`.requirements`), campaigns over a design of experiments (:mod:`.campaign`),
-falsifying searches (:mod:`.falsify`, :mod:`.taliro`) and Hypothesis strategies
-(:mod:`.strategies`).
+([`requirements`][multicosim.search.requirements]), campaigns over a design of experiments
+([`campaign`][multicosim.search.campaign]), falsifying searches
+([`falsify`][multicosim.search.falsify], [`taliro`][multicosim.search.taliro]) and Hypothesis
+strategies ([`strategies`][multicosim.search.strategies]).
 """

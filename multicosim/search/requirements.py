@@ -1,14 +1,14 @@
 """Signal temporal logic requirements over trajectories, with robustness (via rtamt).
 
-::
+```python
+import multicosim.search.requirements as req
 
-    import multicosim.search.requirements as req
-
-    altitude = req.Requirement("always (alt >= 0)")
-    evaluation = altitude.evaluate({"alt": [1.0, -0.5, 2.0]}, times=[0.0, 1.0, 2.0])
-    evaluation.robustness   # -0.5: violated by 0.5 m
-    evaluation.worst_time   # 1.0
-    altitude.check(trajectory)  # raises RequirementViolation (an AssertionError) if violated
+altitude = req.Requirement("always (alt >= 0)")
+evaluation = altitude.evaluate({"alt": [1.0, -0.5, 2.0]}, times=[0.0, 1.0, 2.0])
+evaluation.robustness   # -0.5: violated by 0.5 m
+evaluation.worst_time   # 1.0
+altitude.check(trajectory)  # raises RequirementViolation (an AssertionError) if violated
+```
 
 Semantics: dense time by default (rtamt's ``StlDenseTimeSpecification``, as the paper's
 ``parse_dense``): samples may be irregular, time bounds are seconds, and a signal holds its
@@ -241,7 +241,8 @@ class Requirement:
         return Signals(base.times, columns)
 
     def robustness(self, trajectory: object, *, times: ArrayLike | None = None) -> float:
-        """The robustness alone (cheaper than :meth:`evaluate`)."""
+        """The robustness alone (cheaper than
+        [`evaluate`][multicosim.search.requirements.Requirement.evaluate])."""
         return self._robustness(self.signals(trajectory, times=times))
 
     def evaluate(self, trajectory: object, *, times: ArrayLike | None = None) -> Evaluation:

@@ -1,16 +1,16 @@
 """Hypothesis strategies for simulations, and a fresh simulation per generated example.
 
-::
+```python
+from hypothesis import given
+import multicosim.search.strategies as mst
 
-    from hypothesis import given
-    import multicosim.search.strategies as mst
-
-    @given(world=mst.world_configs(iterations=(10, 200)), speed=st.floats(1.0, 10.0))
-    def test_rover(mcs_fresh_simulation, world, speed):
-        with mcs_fresh_simulation(rover.Rover, world=world) as sim:
-            trajectory = sim.controller.send(rover.Mission(speed=speed))
-        mst.target_robustness(requirement.evaluate(trajectory))
-        requirement.check(trajectory)
+@given(world=mst.world_configs(iterations=(10, 200)), speed=st.floats(1.0, 10.0))
+def test_rover(mcs_fresh_simulation, world, speed):
+    with mcs_fresh_simulation(rover.Rover, world=world) as sim:
+        trajectory = sim.controller.send(rover.Mission(speed=speed))
+    mst.target_robustness(requirement.evaluate(trajectory))
+    requirement.check(trajectory)
+```
 
 These are the strategies every scenario shares; a scenario's own (missions, waypoints) are in
 its package (``multicosim.rover.strategies``, ``multicosim.px4.strategies``), with the same
@@ -234,7 +234,7 @@ def winds(
     gust_start: Range = (0.0, 120.0),
     gust_duration: Range = (0.5, 10.0),
 ) -> st.SearchStrategy[Wind]:
-    """A :class:`~multicosim.physics.Wind`: steady ``speed`` (m/s) from any direction, Dryden
+    """A [`Wind`][multicosim.physics.Wind]: steady ``speed`` (m/s) from any direction, Dryden
     ``turbulence`` (W20, m/s; 15.4 is MIL-F-8785C's moderate) and ``gusts`` 1-cosine gusts.
     Shrinks towards still air."""
     from ..physics import Gust, Wind
@@ -292,9 +292,11 @@ class FreshSimulations:
     The object behind the ``mcs_fresh_simulation`` fixture. It holds no per-test state, so a
     session-scoped fixture can provide it (Hypothesis refuses function-scoped fixtures in
     ``@given`` tests because they are not reset between examples). Calling it with a
-    simulator factory gives a context manager::
+    simulator factory gives a context manager:
 
-        with mcs_fresh_simulation(rover.Rover, world=config) as simulation: ...
+    ```python
+    with mcs_fresh_simulation(rover.Rover, world=config) as simulation: ...
+    ```
 
     The factory is called with ``fidelity`` and ``seed`` (when it accepts them) and the extra
     keyword arguments; what it returns is started (if it has ``start``) and stopped at the

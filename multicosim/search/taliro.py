@@ -2,30 +2,33 @@
 
 The paper's appendix, adapted to psy-taliro 3.x (``staliro.model``, ``staliro.TestOptions``,
 ``staliro.test``) and to the MuJoCo world (``WorldConfig(iterations=..., timestep=...)`` in
-place of ``Gazebo(backend=ODE(iterations=...), step_size=...)``)::
+place of ``Gazebo(backend=ODE(iterations=...), step_size=...)``):
 
-    import multicosim.search.taliro as mtaliro
+```python
+import multicosim.search.taliro as mtaliro
 
-    def simulate(static, fidelity, seed):    # static inputs -> trajectory
-        world = WorldConfig(iterations=round(static["iters"]), timestep=static["step_size"])
-        with rover.Rover(fidelity=fidelity, seed=seed, world=world).start() as sim:
-            return sim.controller.send(rover.Mission(speed=static["speed"]))
+def simulate(static, fidelity, seed):    # static inputs -> trajectory
+    world = WorldConfig(iterations=round(static["iters"]), timestep=static["step_size"])
+    with rover.Rover(fidelity=fidelity, seed=seed, world=world).start() as sim:
+        return sim.controller.send(rover.Mission(speed=static["speed"]))
 
-    result = mtaliro.falsify(
-        simulate,
-        "always (z > 0.0)",
-        static_inputs={"iters": (1, 100), "step_size": (0.001, 0.01), "speed": (1.0, 10.0)},
-        iterations=50,
-        fidelity="medium",
-        trace_dir="traces",
-    )
-    result.falsified, result.sample, result.robustness, result.traces
+result = mtaliro.falsify(
+    simulate,
+    "always (z > 0.0)",
+    static_inputs={"iters": (1, 100), "step_size": (0.001, 0.01), "speed": (1.0, 10.0)},
+    iterations=50,
+    fidelity="medium",
+    trace_dir="traces",
+)
+result.falsified, result.sample, result.robustness, result.traces
+```
 
-:func:`model` and :func:`specification` give the psy-taliro objects themselves, for use with
-``staliro.test`` and any psy-taliro optimizer. The simulate function has multicosim's one
-callback shape, ``simulate(sample, fidelity, seed)`` (as for campaigns and
-:func:`multicosim.search.falsify.falsify`, which also drives psy-taliro's optimizers over spaces
-with integer and choice dimensions and across fidelity levels).
+[`model`][multicosim.search.taliro.model] and
+[`specification`][multicosim.search.taliro.specification] give the psy-taliro objects themselves,
+for use with ``staliro.test`` and any psy-taliro optimizer. The simulate function has multicosim's
+one callback shape, ``simulate(sample, fidelity, seed)`` (as for campaigns and
+[`multicosim.search.falsify.falsify`][multicosim.search.falsify.falsify], which also drives
+psy-taliro's optimizers over spaces with integer and choice dimensions and across fidelity levels).
 """
 
 from __future__ import annotations
@@ -101,7 +104,8 @@ def model(
 def specification(requirement: Requirement | str) -> Any:
     """A psy-taliro specification evaluating ``requirement`` with multicosim's monitor.
 
-    Its annotation is the :class:`~multicosim.search.requirements.Evaluation` (worst time, values).
+    Its annotation is the [`Evaluation`][multicosim.search.requirements.Evaluation] (worst time,
+    values).
     """
     req = requirement if isinstance(requirement, Requirement) else Requirement(requirement)
 
@@ -154,10 +158,12 @@ def falsify(
     robustness sample is simulated once more while recording, and its trace and plot are
     saved there.
 
-    With ``executor`` (``"process"``, ``"ray"``, or a :mod:`multicosim.search.campaign` executor)
-    or ``ray_address``, the optimizer's batches run through that executor, each sample with
-    the seed of its index (:func:`multicosim.search.campaign.sample_seed`); the default optimizer
-    then draws the whole budget as one batch (no early stop). ``simulate`` must be picklable.
+    With ``executor`` (``"process"``, ``"ray"``, or a
+    [`multicosim.search.campaign`][multicosim.search.campaign] executor) or ``ray_address``, the
+    optimizer's batches run through that executor, each sample with the seed of its index
+    ([`multicosim.search.campaign.sample_seed`][multicosim.search.campaign.sample_seed]); the
+    default optimizer then draws the whole budget as one batch (no early stop). ``simulate`` must be
+    picklable.
     """
     check_simulate(simulate)
     if not static_inputs:

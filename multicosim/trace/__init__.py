@@ -1,28 +1,30 @@
 """Record every topic of a simulation into an MCAP file that Foxglove opens.
 
-::
+```python
+from multicosim.trace import Recorder, read_trace
 
-    from multicosim.trace import Recorder, read_trace
-
-    with Recorder().attach(simulation) as recorder:
-        trajectory = simulation.controller.send(mission)
-    recorder.add_trajectory(trajectory)
-    recorder.save("run.mcap", seed=0, fidelity="low")
-    trace = read_trace("run.mcap")
+with Recorder().attach(simulation) as recorder:
+    trajectory = simulation.controller.send(mission)
+recorder.add_trajectory(trajectory)
+recorder.save("run.mcap", seed=0, fidelity="low")
+trace = read_trace("run.mcap")
+```
 
 Recording is cheap by design: the scheduler's tap only appends each routed message to a list;
-conversion to JSON and writing happen in :meth:`Recorder.save`, typically only for a failing
-test. Channels use JSON schemas (``jsonschema`` + ``json``; draft 2020-12, declared), generated
-from the message type when it is known: the in-process publisher's object, or the ``types``
-mapping (topic -> type) for messages that crossed a process boundary; other topics get a
-permissive schema. Converters (:func:`location_fix`, :func:`pose_in_frame`, ...) add Foxglove
-well-known channels, whose schemas are Foxglove's published ones. Beside a trace,
-:class:`TestTrace` saves a Foxglove layout (``.layout.json``), the MAVLink traffic
-(``.tlog``) where there is some, and a PNG plot (``multicosim plot`` redraws it).
+conversion to JSON and writing happen in [`Recorder.save`][multicosim.trace.Recorder.save],
+typically only for a failing test. Channels use JSON schemas (``jsonschema`` + ``json``; draft
+2020-12, declared), generated from the message type when it is known: the in-process publisher's
+object, or the ``types`` mapping (topic -> type) for messages that crossed a process boundary; other
+topics get a permissive schema. Converters ([`location_fix`][multicosim.trace.location_fix],
+[`pose_in_frame`][multicosim.trace.pose_in_frame], ...) add Foxglove well-known channels, whose
+schemas are Foxglove's published ones. Beside a trace, [`TestTrace`][multicosim.trace.TestTrace]
+saves a Foxglove layout (``.layout.json``), the MAVLink traffic (``.tlog``) where there is some, and
+a PNG plot (``multicosim plot`` redraws it).
 
 Log times are simulated time (nanoseconds from the start of the simulation), so the same seed
-gives a byte-identical trace. :func:`fingerprint` hashes what a run routed; two runs of a seed
-that differ are located at their first differing sample (``--mcs-repeat`` uses it).
+gives a byte-identical trace. [`fingerprint`][multicosim.trace.fingerprint] hashes what a run
+routed; two runs of a seed that differ are located at their first differing sample (``--mcs-repeat``
+uses it).
 
 Modules: ``_schemas`` (schemas), ``_convert`` (converters, TraceOptions), ``_recorder``,
 ``_mcap`` (writing and reading MCAP), ``_fingerprint`` (a run's hash), ``_tlog``,

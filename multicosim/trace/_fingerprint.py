@@ -59,8 +59,9 @@ class Fingerprint:
     """Every sample a test's simulations routed, in canonical order, and their hash.
 
     ``digest`` (hexadecimal BLAKE2b, 128 bits) is equal for two runs exactly when their
-    samples are; :meth:`first_difference` names where they part. ``deterministic`` is False
-    when real firmware flew (its own threads: runs of one seed may part).
+    samples are; [`first_difference`][multicosim.trace._fingerprint.Fingerprint.first_difference]
+    names where they part. ``deterministic`` is False when real firmware flew (its own threads: runs
+    of one seed may part).
     """
 
     def __init__(

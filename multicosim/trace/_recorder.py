@@ -45,7 +45,8 @@ __all__ = ["PLAN_CHANNEL", "ROBUSTNESS_CHANNEL", "TRAJECTORY_CHANNEL", "Recorder
 
 class Evaluated(Protocol):
     """What a trace keeps of a requirement's evaluation
-    (:class:`multicosim.search.requirements.Evaluation` is one)."""
+    ([`multicosim.search.requirements.Evaluation`][multicosim.search.requirements.Evaluation] is
+    one)."""
 
     @property
     def formula(self) -> str: ...

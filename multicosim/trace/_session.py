@@ -32,16 +32,16 @@ _current: contextvars.ContextVar[TestTrace | None] = contextvars.ContextVar(
 class TestTrace:
     """The traces of one test: a recorder per simulation started in it, plus notes.
 
-    The pytest plugin activates one (:func:`activate`) from the setup of a test that uses
-    multicosim's fixtures to its teardown; simulations started through ``mcs_simulations``
-    (and so the scenario fixtures) or a fresh-simulation factory are attached to it, and
-    requirement evaluations are noted in it. With ``record=False``
+    The pytest plugin activates one ([`activate`][multicosim.trace._session.activate]) from the
+    setup of a test that uses multicosim's fixtures to its teardown; simulations started through
+    ``mcs_simulations`` (and so the scenario fixtures) or a fresh-simulation factory are attached to
+    it, and requirement evaluations are noted in it. With ``record=False``
     (``--mcs-keep-traces=none``) it only carries the test's metadata (fidelity, seed) for
-    fresh simulations. :meth:`begin_example` forgets what an earlier Hypothesis example
-    recorded, so what is saved is the last (for a failing test: the final, minimal) example.
-    With ``record_started`` (a search's trace of one simulation) every simulation started
-    while it is active is recorded, however it was started: a scenario's (PX4's, the
-    rover's) with its own channels, converters and plot, as in a failing test's trace.
+    fresh simulations. [`begin_example`][multicosim.trace._session.TestTrace.begin_example] forgets
+    what an earlier Hypothesis example recorded, so what is saved is the last (for a failing test:
+    the final, minimal) example. With ``record_started`` (a search's trace of one simulation) every
+    simulation started while it is active is recorded, however it was started: a scenario's (PX4's,
+    the rover's) with its own channels, converters and plot, as in a failing test's trace.
     """
 
     __test__ = False  # not a pytest test class, despite the name
@@ -68,8 +68,8 @@ class TestTrace:
         self.depends_on_firmware = False
         """Whether real firmware's runs (on their own threads) decided what this test holds,
         though they are not among its recordings: a search's confirmations on real PX4
-        decide which run it hands over (:meth:`take`). Its fingerprint is then not
-        deterministic."""
+        decide which run it hands over ([`take`][multicosim.trace._session.TestTrace.take]). Its
+        fingerprint is then not deterministic."""
         self.example = 0
         self._evaluation: tuple[Evaluated, Signals] | None = None
         self._lock = threading.Lock()
@@ -105,7 +105,8 @@ class TestTrace:
 
         A scenario's simulation wraps a local one already recorded: its recording goes on
         as the scenario's (what was recorded stays), with the scenario's trace options,
-        which are read when the scenario's simulation is complete (at :meth:`save`).
+        which are read when the scenario's simulation is complete (at
+        [`save`][multicosim.trace._session.TestTrace.save]).
         """
         if self.record:
             self.attach(simulation)
@@ -182,7 +183,8 @@ class TestTrace:
         )
 
     def fingerprint(self) -> Fingerprint:
-        """The hash of every sample the test's simulations routed (see :func:`fingerprint`)."""
+        """The hash of every sample the test's simulations routed (see
+        [`fingerprint`][multicosim.trace._session.TestTrace.fingerprint])."""
         with self._lock:
             recorders = list(self.recorders)
         found = fingerprint(recorders)

@@ -41,7 +41,7 @@ OFFBOARD_LOSS_MODES = {
 
 
 class Commander(State):
-    """Arming, modes and failsafes (a part of :class:`~.firmware.Autopilot`)."""
+    """Arming, modes and failsafes (a part of ``Autopilot``)."""
 
     def arm_check(self) -> str | None:
         """Why arming would be refused now, or None (PX4's preflight checks, simplified)."""

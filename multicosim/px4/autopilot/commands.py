@@ -1,6 +1,6 @@
 """COMMAND_LONG / COMMAND_INT, answered with COMMAND_ACK as PX4 v1.15.4 answers them.
 
-The answers in each state are the ones recorded from real PX4 (:mod:`.conformance`):
+The answers in each state are the ones recorded from real PX4 (``conformance``):
 commands PX4 does not implement are UNSUPPORTED, REQUEST_MESSAGE of an unknown message is
 DENIED, DO_SET_MODE is accepted for every PX4 mode while disarmed (OFFBOARD is entered only
 while setpoints arrive), MISSION_START without a mission is DENIED.
@@ -51,7 +51,7 @@ ONE_SHOT = {"AUTOPILOT_VERSION", "PROTOCOL_VERSION", "GPS_GLOBAL_ORIGIN", "FLIGH
 
 
 class Commands(State):
-    """The command protocol (a part of :class:`~.firmware.Autopilot`)."""
+    """The command protocol (a part of ``Autopilot``)."""
 
     def _ack(self, command: int, result: int) -> None:
         src_sys, src_comp = self._gcs

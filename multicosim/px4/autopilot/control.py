@@ -3,7 +3,7 @@
 The position stage runs for every vehicle. The point-mass vehicle of the low-fidelity world
 takes the velocity setpoint directly (its first-order velocity response stands in for the
 inner loops); the MuJoCo quadrotor gets the whole cascade down to four motor outputs.
-Gains are tuned for PX4's none_iris airframe (1.5 kg, :mod:`multicosim.quadrotor.airframe`).
+Gains are tuned for PX4's none_iris airframe (1.5 kg, ``multicosim.quadrotor.airframe``).
 """
 
 from __future__ import annotations

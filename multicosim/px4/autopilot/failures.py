@@ -1,8 +1,8 @@
 """Sensor intake and PX4's failure injection (MAV_CMD_INJECT_FAILURE with SYS_FAILURE_EN).
 
 A failure acts where PX4's simulator interface acts on it, between the sensors and the
-estimator, and is one of :mod:`multicosim.attacks`' fault models: OFF is a
-:class:`~multicosim.attacks.Dropout` from the moment of injection, STUCK repeats the last
+estimator, and is one of [`multicosim.attacks`][multicosim.attacks]' fault models: OFF is a
+[`Dropout`][multicosim.attacks.Dropout] from the moment of injection, STUCK repeats the last
 reading, OK ends the failure. The same faults injected by an injector participant change
 the topics instead; here they change only what this autopilot reads.
 """
@@ -42,7 +42,7 @@ class Fault:
 
 
 class Failures(State):
-    """Sensor intake with injected failures (a part of :class:`~.firmware.Autopilot`)."""
+    """Sensor intake with injected failures (a part of ``Autopilot``)."""
 
     failures: dict[str, Fault]
     _last_imu_us: int | None

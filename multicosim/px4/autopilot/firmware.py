@@ -1,15 +1,15 @@
 """Our PX4-compatible autopilot: a participant stepped in lockstep with the world.
 
-It is assembled from parts, one concern per module (see :mod:`.state`): the flight logic
-(:mod:`.commander`: arming, modes, failsafes, land detector; :mod:`.navigator`: what to
-fly per mode; :mod:`.control`; :mod:`.estimator`; :mod:`.failures`: sensor intake with
-PX4's failure injection) and the MAVLink server (:mod:`.offboard`, :mod:`.streams`,
-:mod:`.commands`, :mod:`.paramserver`, :mod:`.missions`). Outside, it looks like PX4 to
+It is assembled from parts, one concern per module (see ``state``): the flight logic
+(``commander``: arming, modes, failsafes, land detector; ``navigator``: what to
+fly per mode; ``control``; ``estimator``; ``failures``: sensor intake with
+PX4's failure injection) and the MAVLink server (``offboard``, ``streams``,
+``commands``, ``paramserver``, ``missions``). Outside, it looks like PX4 to
 both of its peers:
 
 * simulator side: HIL_SENSOR / HIL_GPS in, HIL_ACTUATOR_CONTROLS out (topics ``topics.*``);
 * ground-station side: MAVLink 2 as PX4 presents it, as packed frames on the ``uplink`` /
-  ``downlink`` topics. :mod:`multicosim.px4.standalone` carries those topics over UDP.
+  ``downlink`` topics. ``multicosim.px4.standalone`` carries those topics over UDP.
 """
 
 from __future__ import annotations

@@ -62,7 +62,7 @@ MISSION_TYPES = (MISSION_TYPE_MISSION, MISSION_TYPE_FENCE, MISSION_TYPE_RALLY)
 
 
 class Missions(State):
-    """The mission protocol (a part of :class:`~.firmware.Autopilot`)."""
+    """The mission protocol (a part of ``Autopilot``)."""
 
     _upload: dict[str, Any] | None
 

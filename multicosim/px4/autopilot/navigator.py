@@ -5,7 +5,7 @@ commands with nothing to act on here, such as camera and gimbal ones, are noted)
 return to launch (to the closest of home and the rally points), hold and reposition,
 follow target, offboard setpoints (position, velocity, attitude) and the manual modes
 (POSCTL holds position when the sticks are centred, ALTCTL and the others only height).
-The controller (:mod:`.control`) turns the result into motor outputs.
+The controller (``control``) turns the result into motor outputs.
 """
 
 from __future__ import annotations
@@ -50,7 +50,7 @@ Target = tuple[Vec3, float | None, bool, tuple[float, float] | None]
 
 
 class Navigator(State):
-    """Setpoints per mode and the control output (a part of :class:`~.firmware.Autopilot`)."""
+    """Setpoints per mode and the control output (a part of ``Autopilot``)."""
 
     def _home_d(self) -> float:
         return self.home[2] if self.home is not None else self._ground_d

@@ -1,7 +1,7 @@
 """The MAVLink link of the autopilot: framing, dispatch, and the setpoint messages.
 
 Incoming frames are decoded and dispatched by message name to ``_on_<name>`` handlers of
-the autopilot's parts (:mod:`.commands`, :mod:`.paramserver`, :mod:`.missions`, and the
+the autopilot's parts (``commands``, ``paramserver``, ``missions``, and the
 setpoint streams here: MANUAL_CONTROL, SET_POSITION_TARGET_LOCAL_NED / _GLOBAL_INT,
 SET_ATTITUDE_TARGET, FOLLOW_TARGET). Malformed requests are logged and ignored.
 """
@@ -35,7 +35,7 @@ IGNORE_ATTITUDE, IGNORE_THRUST = 128, 64
 
 
 class Server(State):
-    """The link itself (a part of :class:`~.firmware.Autopilot`)."""
+    """The link itself (a part of ``Autopilot``)."""
 
     def _send(self, msg: Any) -> None:
         mav = self.mav

@@ -2,7 +2,7 @@
 
 The table (every name PX4 v1.15.4 SITL reports, its MAVLink type, the value it has when PX4
 flies our world, and the range PX4's metadata gives) is the one recorded from real PX4 by
-``scripts/record_px4.py`` (:mod:`.conformance`). The autopilot acts on the ones its
+``scripts/record_px4.py`` (``conformance``). The autopilot acts on the ones its
 commander, navigator and controller read; the others are stored and echoed as PX4 does.
 """
 

@@ -1,6 +1,6 @@
 """The MAVLink parameter protocol, as PX4 v1.15.4 serves it.
 
-Every PX4 parameter (:mod:`.params`), indexed by name order; integers travel bytewise in
+Every PX4 parameter (``params``), indexed by name order; integers travel bytewise in
 PARAM_VALUE's float as PX4 sends them, and a PARAM_SET is read by the parameter's own type
 (as PX4 reads it, whatever type the sender claims). Unknown names get no answer at all,
 which is what PX4 does. A full list goes out a few dozen values per step, as a link would
@@ -20,7 +20,7 @@ PARAMS_PER_STEP = 40
 
 
 class ParamServer(State):
-    """The parameter protocol (a part of :class:`~.firmware.Autopilot`)."""
+    """The parameter protocol (a part of ``Autopilot``)."""
 
     _param_queue: list[str]
     _param_index: dict[str, int]

@@ -1,11 +1,11 @@
 """The state our autopilot's parts share.
 
-The autopilot (:mod:`.firmware`) is one participant assembled from parts, one concern
-per module: the flight logic (:mod:`.commander`, :mod:`.navigator`, the controller in
-:mod:`.control`, the estimator in :mod:`.estimator`, sensor failures in
-:mod:`.failures`) and the MAVLink server (:mod:`.offboard` for the link itself,
-:mod:`.streams`, :mod:`.commands`, :mod:`.paramserver`, :mod:`.missions`). Each part is a
-mixin over :class:`State`, which declares what they share.
+The autopilot ([`firmware`][multicosim.firmware]) is one participant assembled from parts, one
+concern per module: the flight logic (``commander``, ``navigator``, the controller in
+``control``, the estimator in ``estimator``, sensor failures in
+``failures``) and the MAVLink server (``offboard`` for the link itself,
+``streams``, ``commands``, ``paramserver``, ``missions``). Each part is a
+mixin over ``State``, which declares what they share.
 """
 
 from __future__ import annotations

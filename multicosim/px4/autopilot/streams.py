@@ -2,7 +2,7 @@
 
 Two profiles, as PX4 has link modes: ``gcs`` (what the in-process ground station reads,
 kept lean for speed) and ``onboard`` (the messages and rates real PX4 v1.15.4 sends on its
-API link, as recorded in :mod:`.conformance`'s data; what ``multicosim px4 sitl`` sends).
+API link, as recorded in ``conformance``'s data; what ``multicosim px4 sitl`` sends).
 SET_MESSAGE_INTERVAL changes any rate, REQUEST_MESSAGE sends one at once.
 """
 
@@ -96,7 +96,7 @@ def _fields(name: str) -> list[tuple[str, int, bool]]:
 
 
 class Streams(State):
-    """Scheduled telemetry (a part of :class:`~.firmware.Autopilot`)."""
+    """Scheduled telemetry (a part of ``Autopilot``)."""
 
     _streams: dict[str, list[float]]
     _stream_defaults: dict[str, float | None]

@@ -1,8 +1,9 @@
 """Designs of experiments: the samples a campaign evaluates.
 
 A design is a list of samples, the same list for the same seed: uniform draws from a box
-(:func:`random_design`), a Latin hypercube over it (:func:`latin_hypercube`) or the examples
-of a Hypothesis strategy (:func:`from_strategy`).
+([`random_design`][multicosim.search.campaign.designs.random_design]), a Latin hypercube over it
+([`latin_hypercube`][multicosim.search.campaign.designs.latin_hypercube]) or the examples of a
+Hypothesis strategy ([`from_strategy`][multicosim.search.campaign.designs.from_strategy]).
 """
 
 from __future__ import annotations

@@ -1,8 +1,10 @@
 """The driver's side of a campaign: samples handed to an executor, results gathered.
 
-:class:`Campaign` keeps an executor's workers open across batches, gives each sample its seed
-(:func:`.simulate.sample_seed`), retries a sample whose worker died, cancels one past its
-timeout, and writes the results under ``output``; :func:`run_campaign` is one batch of it.
+[`Campaign`][multicosim.search.campaign.driver.Campaign] keeps an executor's workers open across
+batches, gives each sample its seed
+([`simulate.sample_seed`][multicosim.search.campaign.simulate.sample_seed]), retries a sample whose
+worker died, cancels one past its timeout, and writes the results under ``output``;
+[`run_campaign`][multicosim.search.campaign.driver.run_campaign] is one batch of it.
 """
 
 from __future__ import annotations
@@ -79,15 +81,17 @@ class _Flight:
 
 
 class Campaign:
-    """A campaign kept open across batches (an optimizer's ask/tell loop)::
+    """A campaign kept open across batches (an optimizer's ask/tell loop):
 
-        with Campaign(simulate, requirement, executor="ray") as campaign:
-            for batch in optimizer:                   # any number of batches
-                results = campaign.evaluate(batch)    # in the batch's order
-        campaign.result()
+    ```python
+    with Campaign(simulate, requirement, executor="ray") as campaign:
+        for batch in optimizer:                   # any number of batches
+            results = campaign.evaluate(batch)    # in the batch's order
+    campaign.result()
+    ```
 
     Sample indices, hence seeds, continue from one batch to the next. Arguments are those of
-    :func:`run_campaign`.
+    [`run_campaign`][multicosim.search.campaign.driver.run_campaign].
     """
 
     def __init__(
@@ -308,12 +312,13 @@ def run_campaign(
 
     ``simulate(sample, fidelity, seed)`` returns a trajectory; ``requirement`` gives each
     its robustness. ``executor`` is ``"process"`` (default), ``"ray"``, a
-    :class:`ProcessExecutor` or a :class:`RayExecutor` (``ray_address`` implies Ray).
-    ``timeout`` (s) cancels a sample that runs longer; a sample whose worker dies is re-run
-    up to ``max_retries`` times. With ``output``, results go to ``output/results.csv`` and
-    the traces of samples that did not pass to ``output/traces/``. ``on_result`` is called
-    with each result as it finishes; ``progress`` shows a progress bar on stderr (samples done,
-    best robustness, ETA; None: only when stderr is a terminal).
+    [`ProcessExecutor`][multicosim.search.campaign.ProcessExecutor] or a
+    [`RayExecutor`][multicosim.search.campaign.RayExecutor] (``ray_address`` implies Ray).
+    ``timeout`` (s) cancels a sample that runs longer; a sample whose worker dies is re-run up to
+    ``max_retries`` times. With ``output``, results go to ``output/results.csv`` and the traces of
+    samples that did not pass to ``output/traces/``. ``on_result`` is called with each result as it
+    finishes; ``progress`` shows a progress bar on stderr (samples done, best robustness, ETA; None:
+    only when stderr is a terminal).
     """
     batch = list(samples)
     if not batch:

@@ -20,10 +20,10 @@ STATUSES = ("ok", "violated", "error", "timeout", "lost")
 class SampleResult:
     """The outcome of one sample.
 
-    ``status`` is one of :data:`STATUSES`: ``ok`` (requirement holds), ``violated``,
-    ``error`` (simulate raised; see ``error``), ``timeout`` or ``lost`` (its worker died more
-    often than the campaign retries). ``attempts`` counts runs (> 1: retried);
-    ``trace`` holds the saved MCAP trace of a sample that did not pass.
+    ``status`` is one of [`STATUSES`][multicosim.search.campaign.results.STATUSES]: ``ok``
+    (requirement holds), ``violated``, ``error`` (simulate raised; see ``error``), ``timeout`` or
+    ``lost`` (its worker died more often than the campaign retries). ``attempts`` counts runs (> 1:
+    retried); ``trace`` holds the saved MCAP trace of a sample that did not pass.
     """
 
     index: int

@@ -1,9 +1,9 @@
 """The one callback shape of campaigns, falsify and taliro, and the seed each call gets.
 
 ``simulate(sample, fidelity, seed)`` runs one simulation and returns a trajectory that
-:meth:`multicosim.search.requirements.Requirement.evaluate` accepts. Campaigns check it here
-and so do :mod:`multicosim.search.falsify` and :mod:`multicosim.search.taliro`, which take the
-same function.
+[`Requirement.evaluate`][multicosim.search.requirements.Requirement.evaluate] accepts.
+Campaigns check it here and so do [`multicosim.search.falsify`][multicosim.search.falsify] and
+[`multicosim.search.taliro`][multicosim.search.taliro], which take the same function.
 """
 
 from __future__ import annotations

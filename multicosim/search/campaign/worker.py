@@ -1,9 +1,9 @@
 """What a campaign worker runs: one sample as a simulation, evaluated, its trace kept on failure.
 
-The executors (:mod:`.executors`) ship a :class:`Task` to a worker by pickle and get an
-:class:`Outcome` back, so both stay importable here, at a stable path, for the workers to
-unpickle; :func:`run_task` is the function they call. The process pool ships the task by
-cloudpickle (:func:`pickled`, :func:`run_pickled`), as Ray does: a ``simulate`` (or a sample
+The executors (``executors``) ship a ``Task`` to a worker by pickle and get an
+``Outcome`` back, so both stay importable here, at a stable path, for the workers to
+unpickle; ``run_task`` is the function they call. The process pool ships the task by
+cloudpickle (``pickled``, ``run_pickled``), as Ray does: a ``simulate`` (or a sample
 type, a derived signal) defined in ``__main__`` travels by value, so that a notebook's or
 ``python -``'s functions run in workers that cannot import them.
 """
@@ -225,7 +225,7 @@ def pickled(task: Task) -> bytes:
 
 
 def run_pickled(payload: bytes) -> Outcome:
-    """Run the task :func:`pickled` made (in a worker)."""
+    """Run the task ``pickled`` made (in a worker)."""
     import pickle
 
     task: Task = pickle.loads(payload)

@@ -19,8 +19,8 @@ class Level:
 
     ``simulate`` (the same shape as falsify's: ``(sample, fidelity, seed)``, called with
     ``fidelity=name``) runs a sample at this level; None uses the function given to
-    :func:`falsify`. A level of its own simulate function plugs in what falsify knows nothing
-    of (real firmware in the loop, hardware, another simulator).
+    [`falsify`][multicosim.search.falsify.falsify]. A level of its own simulate function plugs in
+    what falsify knows nothing of (real firmware in the loop, hardware, another simulator).
     """
 
     name: str

@@ -54,9 +54,10 @@ class Counterexample:
     """A violating sample and how it fares at each level it ran at (in level order).
 
     ``found_at`` is the level the search found it at; ``seed`` the seed every level ran it
-    with and ``requirement`` the formula it violates. :attr:`replay` says how to run it
-    again as a test; each level's ``traces`` hold what its run recorded (the trace of a
-    failing test: every channel, a plot with the vehicle's path).
+    with and ``requirement`` the formula it violates.
+    [`replay`][multicosim.search.falsify.results.Counterexample.replay] says how to run it again as
+    a test; each level's ``traces`` hold what its run recorded (the trace of a failing test: every
+    channel, a plot with the vehicle's path).
     """
 
     example: Any
@@ -135,12 +136,15 @@ class FalsificationResult:
     confirms. ``lowest`` is the lowest robustness the optimizer was told and its sample.
     ``trials`` lists every simulation, confirmations included; ``stats`` sums them per level.
 
-    In a test, :meth:`assert_holds` is the assertion: it fails with :meth:`summary` (the
-    counterexample, its verdict at each level, its traces and how to replay it) when the
-    requirement was falsified::
+    In a test, [`assert_holds`][multicosim.search.falsify.results.FalsificationResult.assert_holds]
+    is the assertion: it fails with
+    [`summary`][multicosim.search.falsify.results.FalsificationResult.summary] (the counterexample,
+    its verdict at each level, its traces and how to replay it) when the requirement was falsified:
 
-        def test_overshoot_holds():
-            falsify(simulate, "always (overshoot <= 0.15)", space, budget=50).assert_holds()
+    ```python
+    def test_overshoot_holds():
+        falsify(simulate, "always (overshoot <= 0.15)", space, budget=50).assert_holds()
+    ```
     """
 
     requirement: str
@@ -234,9 +238,10 @@ class FalsificationResult:
     def assert_holds(self) -> None:
         """Assert that the search found no confirmed counterexample (the pytest assertion).
 
-        Raises ``AssertionError`` with :meth:`summary` as its message if the requirement was
-        falsified (a violation every level confirmed); returns None otherwise. A violation
-        a higher level did not confirm does not fail it: ``result.first_violation`` tells.
+        Raises ``AssertionError`` with
+        [`summary`][multicosim.search.falsify.results.FalsificationResult.summary] as its message if
+        the requirement was falsified (a violation every level confirmed); returns None otherwise. A
+        violation a higher level did not confirm does not fail it: ``result.first_violation`` tells.
         """
         if self.falsified:
             raise AssertionError(self.summary())

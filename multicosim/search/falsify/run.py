@@ -1,7 +1,7 @@
 """falsify(): check the arguments, run the optimizer's adapter over a search, report.
 
-The search itself is :class:`.search.Search`; the optimizers are adapted in
-:mod:`.optimizers`; what comes back is described in :mod:`.results`.
+The search itself is ``search.Search``; the optimizers are adapted in
+``optimizers``; what comes back is described in ``results``.
 """
 
 from __future__ import annotations
@@ -45,10 +45,10 @@ def falsify(
     """Search ``space`` for a violation of ``requirement``; confirm it at every level.
 
     ``run(sample, fidelity, seed)`` runs one simulation and returns its trajectory (anything
-    ``Requirement.evaluate`` accepts). See :mod:`multicosim.search.falsify` for ``space``,
-    ``optimizer`` and ``levels``. With ``trace_dir``, every violating simulation leaves its
-    MCAP trace and plot under ``trace_dir/sample-NNNNN/LEVEL``. ``progress`` shows a bar on
-    stderr (None: when stderr is a terminal).
+    ``Requirement.evaluate`` accepts). See [`multicosim.search.falsify`][multicosim.search.falsify]
+    for ``space``, ``optimizer`` and ``levels``. With ``trace_dir``, every violating simulation
+    leaves its MCAP trace and plot under ``trace_dir/sample-NNNNN/LEVEL``. ``progress`` shows a bar
+    on stderr (None: when stderr is a terminal).
     """
     run = check_simulate(run, "run")
     if optimizer is None:

@@ -1,7 +1,7 @@
 """The objective every optimizer minimizes, and the bookkeeping of the search behind it.
 
-:class:`Search` simulates a sample at the search level, confirms a violation at the other
-levels, and tells the optimizer the robustness to minimize; it raises :class:`Done` once a
+``Search`` simulates a sample at the search level, confirms a violation at the other
+levels, and tells the optimizer the robustness to minimize; it raises ``Done`` once a
 counterexample is confirmed or the budget is spent.
 """
 

@@ -1,9 +1,11 @@
 """The space a falsification searches: real, integer and choice dimensions, by name.
 
-A space maps names to dimensions: ``(low, high)`` or :class:`Real` for a real interval,
-:class:`Integer`, :class:`Choice`; a :data:`FIDELITY` dimension makes the fidelity a search
-variable. :func:`from_unit` maps [0, 1] onto a dimension, for optimizers that search the unit
-cube (a Latin hypercube, psy-taliro).
+A space maps names to dimensions: ``(low, high)`` or [`Real`][multicosim.search.falsify.space.Real]
+for a real interval, [`Integer`][multicosim.search.falsify.space.Integer],
+[`Choice`][multicosim.search.falsify.space.Choice]; a
+[`FIDELITY`][multicosim.search.falsify.space.FIDELITY] dimension makes the fidelity a search
+variable. ``from_unit`` maps [0, 1] onto a dimension, for optimizers that search the unit cube (a
+Latin hypercube, psy-taliro).
 """
 
 from __future__ import annotations
@@ -92,7 +94,8 @@ Dimension = Real | Integer | Choice
 
 
 def dimensions(space: Mapping[str, Any]) -> dict[str, Dimension]:
-    """The dimensions of ``space``, a ``(low, high)`` pair read as :class:`Real`."""
+    """The dimensions of ``space``, a ``(low, high)`` pair read as
+    [`Real`][multicosim.search.falsify.space.Real]."""
     if not space:
         raise ConfigurationError("space", space, "at least one dimension")
     out: dict[str, Dimension] = {}

@@ -1,9 +1,11 @@
-"""Where a campaign's samples run: one module per executor, behind :mod:`.protocol`.
+"""Where a campaign's samples run: one module per executor, behind ``protocol``.
 
-* :mod:`.pool`: :class:`ProcessExecutor`, a local process pool (the default);
-* :mod:`.ray`: :class:`RayExecutor`, Ray tasks on a cluster.
+* ``pool``: [`ProcessExecutor`][multicosim.search.campaign.executors.ProcessExecutor], a local
+  process pool (the default);
+* [`ray`][multicosim.ray]: [`RayExecutor`][multicosim.search.campaign.executors.RayExecutor], Ray
+  tasks on a cluster.
 
-:func:`executor_of` turns a campaign's ``executor=`` and ``ray_address=`` arguments into one
+``executor_of`` turns a campaign's ``executor=`` and ``ray_address=`` arguments into one
 of them.
 """
 

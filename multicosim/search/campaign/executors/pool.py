@@ -69,7 +69,8 @@ def _main_without_file() -> Iterator[None]:
 
 
 class PoolBackend:
-    """A :class:`ProcessExecutor`'s running pool; a broken pool is replaced on the next task."""
+    """A [`ProcessExecutor`][multicosim.search.campaign.executors.pool.ProcessExecutor]'s running
+    pool; a broken pool is replaced on the next task."""
 
     name = "process"
 

@@ -1,9 +1,10 @@
-"""What a campaign needs of an executor once it runs: the :class:`Backend` protocol.
+"""What a campaign needs of an executor once it runs: the ``Backend`` protocol.
 
-An executor object (:class:`~.pool.ProcessExecutor`, :class:`~.ray.RayExecutor`) is the
-user's configuration; its ``open()`` starts the workers and returns a :class:`Backend`, which
-the campaign feeds tasks until it closes it. A backend reports a task it could not finish
-with :class:`WorkerLost` (the campaign retries it) or :class:`TaskFailed` (it does not).
+An executor object ([`ProcessExecutor`][multicosim.search.campaign.executors.pool.ProcessExecutor],
+[`RayExecutor`][multicosim.search.campaign.executors.ray.RayExecutor]) is the user's configuration;
+its ``open()`` starts the workers and returns a ``Backend``, which the campaign feeds tasks until it
+closes it. A backend reports a task it could not finish with ``WorkerLost`` (the campaign retries
+it) or ``TaskFailed`` (it does not).
 """
 
 from __future__ import annotations

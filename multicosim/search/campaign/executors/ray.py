@@ -21,9 +21,10 @@ class RayExecutor:
     ``address`` is what ``ray.init`` takes (``"auto"``, ``"ray://head:10001"``, ...); None
     uses the running Ray connection, else starts a local cluster bound to loopback.
     ``init`` adds keyword arguments for ``ray.init``. Ray connects on first use and stays
-    connected until :meth:`shutdown` (which disconnects only what this object connected).
-    The simulate function must be importable on the workers (or defined in ``__main__``);
-    ship code to a remote cluster with a ``runtime_env`` in ``init``.
+    connected until [`shutdown`][multicosim.search.campaign.executors.ray.RayExecutor.shutdown]
+    (which disconnects only what this object connected). The simulate function must be importable on
+    the workers (or defined in ``__main__``); ship code to a remote cluster with a ``runtime_env``
+    in ``init``.
     """
 
     name = "ray"
@@ -80,7 +81,8 @@ class RayExecutor:
 
 
 class RayBackend:
-    """A connected :class:`RayExecutor`: tasks become Ray tasks, handles object references."""
+    """A connected [`RayExecutor`][multicosim.search.campaign.executors.ray.RayExecutor]: tasks
+    become Ray tasks, handles object references."""
 
     name = "ray"
 

@@ -1,14 +1,15 @@
-"""The optimizers falsify drives: one adapter module per kind, behind :mod:`.protocol`.
+"""The optimizers falsify drives: one adapter module per kind, behind ``protocol``.
 
-* :mod:`.optuna`: optuna's samplers by name (``"random"``, ``"tpe"``, ``"cmaes"``, ``"gp"``),
+* ``optuna``: optuna's samplers by name (``"random"``, ``"tpe"``, ``"cmaes"``, ``"gp"``),
   or an optuna sampler or study;
-* :mod:`.lhs`: a Latin hypercube (``"lhs"``);
-* :mod:`.taliro`: psy-taliro's optimizers (``"taliro-random"``, ``"taliro-annealing"``, or one
-  given);
-* :mod:`.hypothesis`: Hypothesis (``"hypothesis"``, :class:`HypothesisSearch`);
-* :mod:`.asktell`: any object with ``ask()`` and ``tell(asked, robustness)``.
+* ``lhs``: a Latin hypercube (``"lhs"``);
+* [`taliro`][multicosim.search.taliro]: psy-taliro's optimizers (``"taliro-random"``,
+  ``"taliro-annealing"``, or one given);
+* ``hypothesis``: Hypothesis (``"hypothesis"``,
+  [`HypothesisSearch`][multicosim.search.falsify.optimizers.HypothesisSearch]);
+* ``asktell``: any object with ``ask()`` and ``tell(asked, robustness)``.
 
-:func:`adapter_for` picks the adapter of what the user passed as ``optimizer``.
+``adapter_for`` picks the adapter of what the user passed as ``optimizer``.
 """
 
 from __future__ import annotations
@@ -64,7 +65,8 @@ def default_optimizer() -> str:
 
 
 def check_name(optimizer: Any) -> None:
-    """ConfigurationError if ``optimizer`` is a name but not one of :data:`OPTIMIZERS`."""
+    """ConfigurationError if ``optimizer`` is a name but not one of
+    [`OPTIMIZERS`][multicosim.search.falsify.optimizers.OPTIMIZERS]."""
     if isinstance(optimizer, str) and optimizer not in OPTIMIZERS:
         raise ConfigurationError("optimizer", optimizer, _ALLOWED)
 

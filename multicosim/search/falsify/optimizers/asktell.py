@@ -26,7 +26,8 @@ class AskTell(Protocol):
 
 
 class AskTellAdapter:
-    """Run an :class:`AskTell` optimizer over ``dims``."""
+    """Run an [`AskTell`][multicosim.search.falsify.optimizers.asktell.AskTell] optimizer over
+    ``dims``."""
 
     def __init__(self, optimizer: AskTell, dims: Mapping[str, Dimension]) -> None:
         self.optimizer = optimizer

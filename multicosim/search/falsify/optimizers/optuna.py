@@ -18,7 +18,7 @@ SAMPLERS = ("random", "tpe", "cmaes", "gp")
 
 
 class OptunaAdapter:
-    """Run ``sampler`` (a name of :data:`SAMPLERS`, an optuna sampler or study) over ``dims``.
+    """Run ``sampler`` (a name of ``SAMPLERS``, an optuna sampler or study) over ``dims``.
 
     A sampler given by name is seeded with the search's seed.
     """

@@ -1,8 +1,8 @@
-"""What falsify needs of an optimizer: the :class:`Adapter` protocol.
+"""What falsify needs of an optimizer: the ``Adapter`` protocol.
 
 An adapter wraps one kind of optimizer (optuna, a Latin hypercube, psy-taliro, Hypothesis,
-any ask/tell object) so that it proposes samples to :meth:`.Search.objective` and learns
-the robustness it returns, until the search is over (``Search.done``, or :class:`.Done`
+any ask/tell object) so that it proposes samples to ``Search.objective`` and learns
+the robustness it returns, until the search is over (``Search.done``, or ``Done``
 raised by the objective). Building an adapter imports nothing heavy; ``run`` imports what
 the optimizer needs.
 """

@@ -1,7 +1,7 @@
 """psy-taliro's optimizers (``"taliro-random"``, ``"taliro-annealing"``, or one given).
 
 psy-taliro searches the unit cube: every dimension is mapped onto [0, 1] as a Latin hypercube
-maps it (:func:`.space.from_unit`), integers and choices included.
+maps it (``space.from_unit``), integers and choices included.
 """
 
 from __future__ import annotations
