@@ -167,7 +167,47 @@ def load_case(path: Path) -> Case:
     for field, file in files:
         if isinstance(file, str) and file and not (path.parent / file).is_file():
             raise CaseError(path, field, f"{file!r} is no file (names are relative to the case)")
+    _check_requirements(path, case)
     return case
+
+
+def _signals(case: Case) -> list[str]:
+    """What a case's requirements may read: the fleet's encounter, or one flight's samples
+    (their numeric fields, as a trajectory's signals are)."""
+    if case.vehicles:
+        from multicosim.fleet.results import signal_names
+
+        return signal_names(list(case.vehicles))
+    from multicosim.mavlink.mission import FlightSample
+
+    return [
+        f.name
+        for f in msgspec.structs.fields(FlightSample)
+        if f.name != "time" and f.type in (float, int, bool)
+    ]
+
+
+def _check_requirements(path: Path, case: Case) -> None:
+    """Each requirement parses and reads only signals the flight has (at collection, not
+    after the flight)."""
+    if not case.requirements:
+        return
+    from multicosim.search.requirements import Requirement
+
+    known = _signals(case)
+    for i, formula in enumerate(case.requirements):
+        field = f"requirements[{i}]"
+        try:
+            variables = Requirement(formula).variables
+        except ConfigurationError as exc:
+            raise CaseError(path, field, str(exc)) from None
+        unknown = [v for v in variables if v not in known]
+        if unknown:
+            raise CaseError(
+                path,
+                field,
+                f"{unknown[0]!r} is no signal of the flight; allowed: {', '.join(known)}",
+            )
 
 
 def _check_fleet(path: Path, case: Case) -> None:

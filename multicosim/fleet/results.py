@@ -19,6 +19,7 @@ __all__ = [
     "LossOfWellClear",
     "VehicleCollision",
     "pair_name",
+    "signal_names",
 ]
 
 
@@ -63,6 +64,31 @@ class LossOfWellClear(msgspec.Struct, frozen=True):
     end: float | None
 
 
+# The encounter's signals that are the minimum over the pairs, and the sample field of each.
+_MINIMA = (
+    ("separation", "separation"),
+    ("horizontal_separation", "horizontal"),
+    ("vertical_separation", "vertical"),
+    ("cpa_distance", "cpa_distance"),
+    ("cpa_time", "cpa_time"),
+)
+
+
+def _pair_signals(pair: str) -> tuple[str, str]:
+    """A pair's own signals (``alpha-bravo``: ``separation_alpha_bravo``, ``well_clear_...``)."""
+    key = pair.replace("-", "_")
+    return f"separation_{key}", f"well_clear_{key}"
+
+
+def signal_names(vehicles: Sequence[str]) -> list[str]:
+    """The signals [`Encounter.signals`][multicosim.fleet.results.Encounter.signals] gives a
+    fleet of ``vehicles`` (names, in the fleet's order): what its requirements may read."""
+    names = [column for column, _ in _MINIMA] + ["well_clear"]
+    for a, b in pairs_of(vehicles):
+        names += _pair_signals(pair_name(a, b))
+    return names
+
+
 class Encounter(msgspec.Struct, frozen=True, kw_only=True):
     """The fleet's pairs over the flight: per pair (``alpha-bravo``) its samples, closest
     approach and losses of well clear, and the collisions; ``well_clear`` names the volume
@@ -89,21 +115,14 @@ class Encounter(msgspec.Struct, frozen=True, kw_only=True):
         series = list(self.pairs.items())
         times = [s.time for s in series[0][1]]
         out: dict[str, list[float]] = {"time": times}
-        fields = (
-            ("separation", "separation"),
-            ("horizontal_separation", "horizontal"),
-            ("vertical_separation", "vertical"),
-            ("cpa_distance", "cpa_distance"),
-            ("cpa_time", "cpa_time"),
-        )
         n = min(len(samples) for _, samples in series)
-        for column, field in fields:
+        for column, field in _MINIMA:
             out[column] = [min(getattr(s[i], field) for _, s in series) for i in range(n)]
         out["well_clear"] = [float(all(s[i].well_clear for _, s in series)) for i in range(n)]
         for name, samples in series:
-            key = name.replace("-", "_")
-            out[f"separation_{key}"] = [s.separation for s in samples[:n]]
-            out[f"well_clear_{key}"] = [float(s.well_clear) for s in samples[:n]]
+            separation, well_clear = _pair_signals(name)
+            out[separation] = [s.separation for s in samples[:n]]
+            out[well_clear] = [float(s.well_clear) for s in samples[:n]]
         out["time"] = times[:n]
         return out
 

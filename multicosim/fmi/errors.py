@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 from ..core.errors import NodeError
@@ -18,7 +19,9 @@ class FMUError(NodeError):
     A [`multicosim.NodeError`][multicosim.NodeError]: ``name`` is the component, ``function`` the
     FMI call (``fmi2DoStep``, ``fmi3DoStep``, ...), ``status`` what it returned, ``time`` the
     simulated time (s) of the step and ``fmu_time`` the FMU's own (they differ by the FMU's
-    ``start_time``). The run stops there and the instance is freed. Run as a process or a
+    ``start_time``) and ``fmu_reason`` the reason the FMU logged with its Error or Fatal
+    status (its last such line: the message ends with it). The run stops there and the
+    instance is freed. Run as a process or a
     container, the same failure ends the component's program, and the host reports a
     NodeCrashedError whose log tail holds this error and the FMU's own log.
     """
@@ -39,9 +42,16 @@ class FMUError(NodeError):
         self.time = time
         self.fmu_time = time if fmu_time is None else fmu_time
         self.fmu = model if isinstance(model, str) else model.label
+        self.fmu_reason = ""
         when = f"at t={time:.9g} s"
         if self.fmu_time != time:
             when += f" (the FMU's time {self.fmu_time:.9g} s)"
-        super().__init__(
-            name, f"(FMU {self.fmu}) failed: {function} returned {status} {when}", log_tail=log_tail
-        )
+        self._failed = f"(FMU {self.fmu}) failed: {function} returned {status} {when}"
+        super().__init__(name, self._failed, log_tail=log_tail)
+
+    def add_log(self, lines: Sequence[str], reason: str) -> None:
+        """Attach the FMU's own log: its last ``lines``, and the ``reason`` it gave (the
+        message of its last Error or Fatal line; empty if it gave none)."""
+        self.fmu_reason = reason
+        failed = f"{self._failed}: {reason}" if reason else self._failed
+        NodeError.__init__(self, self.name, failed, log_tail="\n".join(lines))

@@ -69,6 +69,7 @@ class FMUParticipant:
         self._ending = False
         self._lines: list[tuple[str, str, str]] = []
         self._tail: list[str] = []
+        self._reason = ""  # the FMU's last Error or Fatal message: why a call failed
         self._log: IO[str] | None = None
         self._unzipdir: str | None = None
         self._own_dir: str | None = None
@@ -101,7 +102,7 @@ class FMUParticipant:
             )
         except FMUError as exc:
             self._flush(ctx)
-            exc.log_tail = "\n".join(self._tail)
+            exc.add_log(self._tail, self._reason)
             self.close()
             raise
         except BaseException:
@@ -179,7 +180,7 @@ class FMUParticipant:
     def _failed(self, ctx: StepContext, error: FMUError) -> None:
         self.done = True
         self._flush(ctx)
-        error.log_tail = "\n".join(self._tail)
+        error.add_log(self._tail, self._reason)
 
     def _finish(self, ctx: StepContext) -> None:
         # The run is over (stop time, or the FMU asked to end): nothing is published after.
@@ -196,6 +197,8 @@ class FMUParticipant:
             text = f"[{label}] {category}: {message}" if category else f"[{label}] {message}"
             self._tail = [*self._tail[-(_LOG_TAIL - 1) :], text]
             self._lines.append((label, category, message))
+            if label in ("Error", "Fatal"):
+                self._reason = message
             time = self.instance.time if self.instance is not None else self.config.start_time
             log_file = self.config.log_file
             if log_file is not None:

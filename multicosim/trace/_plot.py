@@ -113,6 +113,33 @@ def _approaches(ax: Axes, data: TraceData) -> None:
         line.set_gid(f"approach/{a}/{b}")
 
 
+def _separations(ax: Axes, data: TraceData) -> bool:
+    """Each pair's separation and horizontal separation over time (a fleet's run without a
+    requirement); whether there was a pair to draw."""
+    drawn = False
+    for topic in sorted(t for t in data.channels if t.startswith(ENCOUNTER_CHANNEL + "/")):
+        pair = topic.removeprefix(ENCOUNTER_CHANNEL + "/").replace("/", "-")
+        cols = _columns(data.topic(topic), "separation", "horizontal")
+        if not cols["time"]:
+            continue
+        (line,) = ax.plot(cols["time"], cols["separation"], label=f"{pair}: separation")
+        line.set_gid(f"separation/{pair}")
+        ax.plot(
+            cols["time"],
+            cols["horizontal"],
+            linestyle="--",
+            color=line.get_color(),
+            label=f"{pair}: horizontal",
+        )
+        drawn = True
+    if drawn:
+        ax.set_title("separation between the vehicles (no requirement evaluated)")
+        ax.set_xlabel("time (s)")
+        ax.set_ylabel("m")
+        ax.legend(loc="best", fontsize=8)
+    return drawn
+
+
 def _columns(messages: Sequence[TraceMessage], *names: str) -> dict[str, list[float]]:
     out: dict[str, list[float]] = {"time": [], **{n: [] for n in names}}
     for m in messages:
@@ -301,7 +328,7 @@ def figure(data: TraceData, title: str = "") -> Figure:
         ax_rob.set_title(f"robustness of {head.get('formula')}: {_text(rho)}")
         ax_rob.legend(loc="best", fontsize=8)
         ax_rob.set_xlabel("time (s)")
-    else:
+    elif not _separations(ax_rob, data):
         ax_rob.set_axis_off()
         ax_rob.text(0.5, 0.5, "no requirement evaluated", ha="center", va="center")
     fig.tight_layout()

@@ -14,6 +14,7 @@ from itertools import combinations
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 from mavsdk_client import fly_mission
 from pymavlink import mavutil
@@ -164,6 +165,11 @@ def test_one_trace_holds_every_vehicle_and_its_plot_marks_the_closest_approach(
     south, north = sorted(marked.get_ydata())
     assert south <= approach.north <= north
     assert "closest alpha-bravo" in str(marked.get_label())
+    # Without a requirement, the last panel is the pair's separation over time.
+    separation = next(
+        line for line in figure(trace).axes[2].get_lines() if "separation" in str(line.get_label())
+    )
+    assert float(np.min(np.asarray(separation.get_ydata()))) == pytest.approx(approach.separation)
     # The MAVLink log tells the vehicles apart by their system ids.
     heartbeats = mavutil.mavlink_connection(str(tlog))
     systems = set()

@@ -181,6 +181,13 @@ def test_an_fmu_refusing_a_value_is_an_error_with_its_log(reference_fmus: Path) 
         0.0,
     )
     assert "Expected nValues >= 2 but was 1." in error.log_tail
+    # The FMU's own reason ends the message, not only its log.
+    assert error.fmu_reason == "Expected nValues >= 2 but was 1."
+    assert (
+        str(error)
+        .splitlines()[0]
+        .endswith("returned Error at t=0 s: Expected nValues >= 2 but was 1.")
+    )
     assert isinstance(error, mcs.NodeError)
 
 

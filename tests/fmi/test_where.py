@@ -77,6 +77,9 @@ def test_a_failing_step_in_process_is_an_fmu_error(
     assert error.time == pytest.approx(FAULT_TIME)
     assert f"returned {status} at t=0.5 s" in str(error)
     assert "injected" in error.log_tail
+    if status != "Discard":  # a Discard is no failure of the FMU's own: it logs no reason
+        assert error.fmu_reason.startswith("injected")
+        assert str(error).splitlines()[0].endswith(error.fmu_reason)
     assert "injected" in log_text  # the component's log
     assert node.result()["time"][-1] == pytest.approx(0.4)  # its last good instant
 

@@ -118,6 +118,12 @@ requirements = ["always (true_alt <= 30)"]
         (CROSSING.replace("{north: 40", "{yaw: 400, north: 40"), "*yaw*400*"),
         (CROSSING.replace("{plan: crossing-north", "{plann: crossing-north"), "*plann*"),
         (CROSSING.replace("crossing-east.plan", "eastward.plan"), "*vehicles.bravo.plan*"),
+        (PAST.replace("(clearance", "(clearence"), "*requirements[[]0[]]*'clearence'*clearance*"),
+        (PAST.replace("always (", "always ((("), "*requirements[[]0[]]*"),
+        (
+            CROSSING.replace("separation >=", "separation_alpha_charlie >="),
+            "*requirements[[]0[]]*'separation_alpha_charlie'*separation_alpha_bravo*",
+        ),
     ],
     ids=[
         "negative-height",
@@ -132,6 +138,9 @@ requirements = ["always (true_alt <= 30)"]
         "fleet-start",
         "fleet-unknown-field",
         "fleet-no-plan",
+        "misspelt-signal",
+        "formula",
+        "fleet-unknown-pair",
     ],
 )
 @pytest.mark.usefixtures("plan", "plans")
