@@ -59,6 +59,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import re
 from collections.abc import Callable
 from pathlib import Path
 from types import ModuleType
@@ -130,6 +131,50 @@ def _where(message: str) -> tuple[str, str]:
     return at.rstrip("`").lstrip(".") or "(top level)", reason
 
 
+def _types_at(where: str) -> list[Any]:
+    """The types (msgspec.inspect) a case may hold at ``where`` (``obstacles[0]``)."""
+    import msgspec.inspect as mi
+
+    def inside(node: Any, part: str) -> list[Any]:
+        if isinstance(node, mi.UnionType):
+            return [t for member in node.types for t in inside(member, part)]
+        if isinstance(node, mi.DictType):  # msgspec says `[...]` for any key
+            return [node.value_type]
+        if part.startswith("["):
+            item = getattr(node, "item_type", None)
+            return [item] if item is not None else list(getattr(node, "item_types", ()))
+        if isinstance(node, mi.StructType):
+            return [f.type for f in node.fields if f.encode_name == part]
+        return []
+
+    nodes: list[Any] = [mi.type_info(Case)]
+    if where != "(top level)":
+        for part in re.findall(r"[^.\[\]]+|\[\d+\]|\[\.\.\.\]", where):
+            nodes = [t for n in nodes for t in inside(n, part)]
+    flat: list[Any] = []
+    for n in nodes:
+        flat += list(n.types) if isinstance(n, mi.UnionType) else [n]
+    return flat
+
+
+def _allowed(where: str, reason: str) -> str:
+    """What msgspec's complaint leaves out: the fields allowed where one is unknown, the
+    kinds allowed where a ``type`` is not one."""
+    import msgspec.inspect as mi
+
+    if reason.startswith("Object contains unknown field"):
+        structs = [t for t in _types_at(where) if isinstance(t, mi.StructType)]
+        names = dict.fromkeys(f.encode_name for t in structs for f in t.fields)
+        return f"; allowed: {', '.join(names)}" if names else ""
+    parent, _, last = where.rpartition(".")
+    tags = [
+        str(t.tag)
+        for t in _types_at(parent or "(top level)")
+        if isinstance(t, mi.StructType) and t.tag_field == last
+    ]
+    return f"; allowed: {', '.join(tags)}" if reason.startswith("Invalid value") and tags else ""
+
+
 def load_case(path: Path) -> Case:
     """Read and check the case in ``path``; ConfigurationError names the field that is wrong."""
     if path.suffix == ".toml":
@@ -143,7 +188,8 @@ def load_case(path: Path) -> Case:
         raise CaseError(path, "vehicles: start", str(exc)) from None
     except msgspec.ValidationError as exc:
         # msgspec says where (`$.obstacles[0].height`) and what it expected.
-        raise CaseError(path, *_where(str(exc))) from None
+        where, reason = _where(str(exc))
+        raise CaseError(path, where, reason + _allowed(where, reason)) from None
     except msgspec.DecodeError as exc:
         raise CaseError(path, "(file)", f"not valid {path.suffix[1:].upper()}: {exc}") from None
     if bool(case.plan) == bool(case.vehicles):
