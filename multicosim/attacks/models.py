@@ -322,10 +322,15 @@ def broadcast(
     ``axes``, in their order; raise if it cannot be."""
     size = len(axes)
     if isinstance(values, Named):
+        # A Local names north, east and up, 0 where not given: it fits a quantity with any
+        # of those axes (a two-axis position), as long as it gives nothing to the others.
         by_name = dict(zip(values.names, values, strict=True))
-        if set(axes) != set(by_name):
+        given = ", ".join(f"{n}={v:g}" for n, v in by_name.items() if v != 0.0)
+        if any(a not in by_name for a in axes) or any(
+            v != 0.0 for n, v in by_name.items() if n not in axes
+        ):
             raise ConfigurationError(
-                field, Local(**by_name), f"values for the axes of {quantity!r}: {axes}"
+                field, f"Local({given})", f"values for the axes of {quantity!r}: {axes}"
             )
         return tuple(by_name[axis] for axis in axes)
     if len(values) == size:

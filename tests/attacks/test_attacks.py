@@ -15,6 +15,7 @@ import multicosim.attacks as attacks
 import multicosim.px4 as px4
 import multicosim.rover as rover
 from multicosim.attacks import strategies as ast
+from multicosim.attacks.models import broadcast, check_models
 from multicosim.core.geo import LocalProjection
 from multicosim.px4 import hil
 from multicosim.rover import MagneticField, Position
@@ -537,3 +538,28 @@ def test_a_vehicle_of_ones_own_registers_its_sensors() -> None:
     assert moved.depth == 7.0
     with pytest.raises(mcs.ConfigurationError, match="registered sensors"):
         attacks.sensor("submarine", "sonar")
+
+
+def test_a_local_offset_fits_a_quantity_of_fewer_axes_by_name() -> None:
+    # A user's two-axis position: Local's north and east go to its axes by name; up, which
+    # it lacks, must not be given.
+    quantities = {"position": ("north", "east")}
+    (bias,) = check_models(
+        (attacks.Bias(offset=attacks.Local(east=2.0)),), quantities, "position", "boat"
+    )
+    (offset,) = bias.vectors().values()
+    assert broadcast("offset", offset, ("north", "east"), "position") == (0.0, 2.0)
+    with pytest.raises(mcs.ConfigurationError) as info:
+        check_models(
+            (attacks.Bias(offset=attacks.Local(north=1.0, up=3.0)),),
+            quantities,
+            "position",
+            "boat",
+        )
+    assert "Local(north=1, up=3)" in str(info.value)
+    assert "('north', 'east')" in str(info.value)
+    # Axes a Local does not name cannot be given by it.
+    with pytest.raises(mcs.ConfigurationError, match="depth"):
+        check_models(
+            (attacks.Bias(offset=attacks.Local(north=1.0)),), {"depth": ("d",)}, "depth", "boat"
+        )
