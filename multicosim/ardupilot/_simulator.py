@@ -248,6 +248,7 @@ class ArduPilotComponent:
             downlink=downlink,
             truth=self.topics[0],
             period=1.0 / self.telemetry_rate,
+            obstacles=tuple(o.name for o in self.world.obstacles),
             # ArduPilot's estimator needs its GPS checks and gyro bias learnt (about 40
             # simulated seconds) before it has a position and arms.
             preflight_timeout=180.0,

@@ -52,7 +52,8 @@ class GcsSpec(msgspec.Struct, frozen=True, kw_only=True):
     """Where the ground station finds the autopilot's link and the world's truth.
 
     ``dialect`` is the MAVLink dialect it decodes (``ardupilotmega`` for ArduPilot, whose
-    own messages ``common`` does not know).
+    own messages ``common`` does not know); ``obstacles`` the world's obstacles' names, in
+    order (a collision is reported by name).
     """
 
     uplink: str
@@ -64,6 +65,7 @@ class GcsSpec(msgspec.Struct, frozen=True, kw_only=True):
     system_id: int = 255
     component_id: int = 190
     dialect: Literal["common", "ardupilotmega"] = "common"
+    obstacles: tuple[str, ...] = ()
 
 
 class MissionFailed(Exception):
@@ -215,10 +217,14 @@ class GroundStation:
         truth = self.truth.latest
         hit = truth.proximity if truth is not None else None
         if hit is not None and hit.hit >= 0 and self.collision is None and self.recording:
-            self.collision = Collision(time=hit.hit_time, obstacle=hit.hit, speed=hit.hit_speed)
+            names = self.spec.obstacles
+            name = names[hit.hit] if hit.hit < len(names) else ""
+            self.collision = Collision(
+                time=hit.hit_time, obstacle=hit.hit, name=name, speed=hit.hit_speed
+            )
+            what = f"obstacle {hit.hit}" + (f" ({name!r})" if name else "")
             raise MissionFailed(
-                f"collision with obstacle {hit.hit} at t={hit.hit_time:.2f} s "
-                f"({hit.hit_speed:.1f} m/s)"
+                f"collision with {what} at t={hit.hit_time:.2f} s ({hit.hit_speed:.1f} m/s)"
             )
 
     def _on(self, m: Any) -> None:

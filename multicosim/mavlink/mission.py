@@ -253,12 +253,13 @@ class FlightSample(msgspec.Struct, frozen=True, kw_only=True):
 
 
 class Collision(msgspec.Struct, frozen=True, kw_only=True):
-    """The vehicle hit ``obstacle`` (its index in ``WorldConfig.obstacles``) at simulated
-    ``time`` (s), moving at ``speed`` (m/s)."""
+    """The vehicle hit ``obstacle`` (its index in ``WorldConfig.obstacles``; ``name`` its
+    name there, empty if it has none) at simulated ``time`` (s), moving at ``speed`` (m/s)."""
 
     time: float
     obstacle: int
     speed: float
+    name: str = ""
 
 
 class WaypointReached(msgspec.Struct, frozen=True, kw_only=True):

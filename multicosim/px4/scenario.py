@@ -323,6 +323,7 @@ class PX4Component:
             downlink=spec.downlink,
             truth=world_topics(self.world).truth,
             period=1.0 / self.rate,
+            obstacles=tuple(o.name for o in self.world.obstacles),
             **slack,
         )
 

@@ -52,8 +52,8 @@ def test_a_mission_through_a_box_collides(px4_simulation: px4.PX4Simulation) -> 
     assert not result.completed
     collision = result.collision
     assert collision is not None
-    assert collision.obstacle == 0
-    assert result.reason.startswith("collision with obstacle 0")
+    assert (collision.obstacle, collision.name) == (0, "wall")  # by name, as in its world
+    assert result.reason.startswith("collision with obstacle 0 ('wall')")
     assert collision.speed > 2.0  # it hit the wall at cruise, not standing
     # It hit the wall's south face (28 m north) with its body's sphere.
     at_hit = min(result.trajectory, key=lambda s: abs(s.time - collision.time))
