@@ -26,7 +26,6 @@ from typing import Any
 from _common import fit_exponent, fit_linear, write_result
 
 from multicosim import fleet, px4
-from multicosim.core.geo import LocalProjection
 from multicosim.physics import Pose
 
 LOW = (1, 2, 4, 8, 16, 32)
@@ -35,14 +34,11 @@ REAL = (1, 2, 3, 4)
 LANE = 6.0  # m between two vehicles' legs, east-west
 LEG = 30.0  # m north
 ALT = 10.0
-HOME = px4.Home()
-PROJECTION = LocalProjection(HOME.lat, HOME.lon)
 
 
 def leg(east: float) -> px4.Configuration:
     """Take off, fly ``LEG`` m north along ``east``, land."""
-    lat, lon = PROJECTION.reproject(LEG, east)
-    return px4.Configuration([px4.Waypoint(lat, lon, ALT)], end="land", time_limit=300.0)
+    return px4.Configuration([px4.Waypoint.local(LEG, east, ALT)], end="land", time_limit=300.0)
 
 
 def flown(count: int, fidelity: str, firmware: px4.SITL | None = None) -> dict[str, Any]:

@@ -34,8 +34,7 @@ BARO_SCALE = 0.94
 
 def wp(home: ardupilot.Home, north: float, east: float, alt: float) -> ardupilot.Waypoint:
     """A waypoint ``north``/``east`` metres from home, ``alt`` above it."""
-    lat, lon = LocalProjection(home.lat, home.lon).reproject(north, east)
-    return ardupilot.Waypoint(lat, lon, alt)
+    return ardupilot.Waypoint.local(north, east, alt, home)
 
 
 def true_ne(home: ardupilot.Home, sample: ardupilot.FlightSample) -> tuple[float, float]:

@@ -33,10 +33,7 @@ LIMIT = 5.0  # m between estimate and truth
 SEARCH_BUDGET = 25
 
 
-def wp(north: float, east: float, alt: float) -> px4.Waypoint:
-    """A waypoint ``north``/``east`` metres from home."""
-    lat, lon = PROJ.reproject(north, east)
-    return px4.Waypoint(lat, lon, alt)
+wp = px4.Waypoint.local  # a waypoint north/east metres from home, alt above it
 
 
 MISSION = px4.Configuration([wp(0, 40, 10)], end="hold")

@@ -31,10 +31,7 @@ PROJ = LocalProjection(HOME.lat, HOME.lon)
 ROVER_MISSION = Mission(speed=3.0, wait=1.0, distance=5.0, final_distance=5.0)
 
 
-def wp(north: float, east: float, alt: float) -> px4.Waypoint:
-    """A waypoint ``north``/``east`` metres from home."""
-    lat, lon = PROJ.reproject(north, east)
-    return px4.Waypoint(lat, lon, alt)
+wp = px4.Waypoint.local  # a waypoint north/east metres from home, alt above it
 
 
 class Probe:

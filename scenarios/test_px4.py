@@ -24,10 +24,7 @@ ESTIMATE_MARGIN = 1.5
 ALL_LEVELS = ("low", "medium", "high")
 
 
-def wp(north: float, east: float, alt: float) -> px4.Waypoint:
-    """A waypoint ``north``/``east`` metres from home."""
-    lat, lon = PROJ.reproject(north, east)
-    return px4.Waypoint(lat, lon, alt)
+wp = px4.Waypoint.local  # a waypoint north/east metres from home, alt above it
 
 
 def true_ne(sample: px4.FlightSample) -> tuple[float, float]:

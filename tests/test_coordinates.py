@@ -2,8 +2,12 @@
 
 from __future__ import annotations
 
+import math
+
 import pytest
 
+import multicosim as mcs
+from multicosim import px4
 from multicosim.core.geo import (
     EastNorthUp,
     Home,
@@ -56,3 +60,16 @@ def test_a_flight_sample_gives_north_east_up_beside_mavlinks_ned() -> None:
         true_alt=25.0,
     )
     assert (sample.north, sample.east, sample.up) == (30.0, -10.0, 25.0)
+
+
+def test_a_waypoint_is_placed_north_and_east_of_home_as_obstacles_are() -> None:
+    home = px4.Home(lat=-33.9, lon=151.2, alt=20.0)
+    waypoint = px4.Waypoint.local(north=30.0, east=-12.5, alt=10.0, home=home)
+    north, east = LocalProjection(home.lat, home.lon).project(waypoint.lat, waypoint.lon)
+    assert north == pytest.approx(30.0)
+    assert east == pytest.approx(-12.5)
+    assert waypoint.alt == 10.0
+    # Without a home, PX4's default: the world's own.
+    assert px4.Waypoint.local(0.0, 0.0, 5.0) == px4.Waypoint(px4.Home().lat, px4.Home().lon, 5.0)
+    with pytest.raises(mcs.ConfigurationError, match="north"):
+        px4.Waypoint.local(north=math.nan, east=0.0, alt=10.0)

@@ -63,6 +63,21 @@ class Waypoint(msgspec.Struct, frozen=True):
         check_number("lon", self.lon, -180.0, 180.0)
         check_number("alt", self.alt, 0.0, 10_000.0)
 
+    @classmethod
+    def local(cls, north: float, east: float, alt: float, home: Home | None = None) -> Waypoint:
+        """The waypoint ``north``/``east`` metres from ``home`` (the world's home; default
+        PX4's), ``alt`` metres above it: placed as obstacles are.
+
+        ```python
+        px4.Waypoint.local(north=30.0, east=0.0, alt=10.0)
+        ```
+        """
+        check_number("north", north)
+        check_number("east", east)
+        home = home or Home()
+        lat, lon = LocalProjection(home.lat, home.lon).reproject(north, east)
+        return cls(lat, lon, alt)
+
 
 class Configuration(msgspec.Struct, frozen=True):
     """What the ground station is told to fly (the paper's ``px4.Configuration(mission)``).

@@ -6,7 +6,6 @@ import sys
 from pathlib import Path
 
 import multicosim.ardupilot as ardupilot
-from multicosim.core.geo import LocalProjection
 
 STANDIN = Path(__file__).with_name("standin.py")
 
@@ -26,5 +25,4 @@ def fake_ardupilot(directory: Path, behaviour: str = "climb") -> Path:
 
 def wp(home: ardupilot.Home, north: float, east: float, alt: float) -> ardupilot.Waypoint:
     """A waypoint ``north``/``east`` metres from ``home``, ``alt`` metres above it."""
-    lat, lon = LocalProjection(home.lat, home.lon).reproject(north, east)
-    return ardupilot.Waypoint(lat, lon, alt)
+    return ardupilot.Waypoint.local(north, east, alt, home)

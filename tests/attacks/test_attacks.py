@@ -547,6 +547,7 @@ def test_a_local_offset_fits_a_quantity_of_fewer_axes_by_name() -> None:
     (bias,) = check_models(
         (attacks.Bias(offset=attacks.Local(east=2.0)),), quantities, "position", "boat"
     )
+    assert isinstance(bias, attacks.Bias)
     (offset,) = bias.vectors().values()
     assert broadcast("offset", offset, ("north", "east"), "position") == (0.0, 2.0)
     with pytest.raises(mcs.ConfigurationError) as info:

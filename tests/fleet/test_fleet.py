@@ -35,9 +35,7 @@ REACH = 2 * NONE_IRIS.radius  # both bodies' radii
 APART = 80.0  # m between the two starts, along north
 
 
-def wp(north: float, east: float, alt: float) -> px4.Waypoint:
-    lat, lon = PROJ.reproject(north, east)
-    return px4.Waypoint(lat, lon, alt)
+wp = px4.Waypoint.local  # a waypoint north/east metres from home, alt above it
 
 
 def head_on(

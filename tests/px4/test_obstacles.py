@@ -30,9 +30,7 @@ WALL = Box(length=4, width=10, height=30, north=30, east=0, name="wall")
 POLE = Cylinder(radius=2, height=20, north=0, east=40)
 
 
-def wp(north: float, east: float, alt: float) -> px4.Waypoint:
-    lat, lon = PROJ.reproject(north, east)
-    return px4.Waypoint(lat, lon, alt)
+wp = px4.Waypoint.local  # a waypoint north/east metres from home, alt above it
 
 
 @pytest.fixture

@@ -18,9 +18,7 @@ HOME = px4.Home()
 PROJ = LocalProjection(HOME.lat, HOME.lon)
 
 
-def wp(north: float, east: float, alt: float) -> px4.Waypoint:
-    lat, lon = PROJ.reproject(north, east)
-    return px4.Waypoint(lat, lon, alt)
+wp = px4.Waypoint.local  # a waypoint north/east metres from home, alt above it
 
 
 def test_listing_1_of_the_paper() -> None:

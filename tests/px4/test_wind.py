@@ -25,9 +25,7 @@ PROJ = LocalProjection(HOME.lat, HOME.lon)
 WIND = 8.0
 
 
-def wp(north: float, east: float, alt: float) -> px4.Waypoint:
-    lat, lon = PROJ.reproject(north, east)
-    return px4.Waypoint(lat, lon, alt)
+wp = px4.Waypoint.local  # a waypoint north/east metres from home, alt above it
 
 
 def hover(simulation: px4.PX4Simulation) -> px4.MissionResult:
