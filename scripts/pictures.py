@@ -20,19 +20,22 @@ ROOT = Path(__file__).resolve().parents[1]
 PICTURES = ROOT / "docs" / "assets" / "pictures"
 FENCE = re.compile(r"^```python\n(.*?)^```", re.M | re.S)
 
-# picture: (page, a string of its listing, how the listing is changed, pytest's options)
+# picture: (page, a string of its listing, how the listing is changed, pytest's options, the
+# test file's name as the page gives it)
 SOURCES = {
     "failing-run.png": (
         "getting-started.md",
         "def test_the_mission_stays_below_30_m",
         ("true_alt <= 30", "true_alt <= 20"),
         ("--mcs-fidelity=low",),
+        "test_drone.py",
     ),
     "fleet-crossing.png": (
         "tutorials/fleet.md",
         "def test_crossing_drones_lose_well_clear_but_never_touch",
         ("", ""),
         ("--mcs-fidelity=low", "--mcs-keep-traces=all"),
+        "test_fleet.py",
     ),
 }
 
@@ -46,9 +49,9 @@ def listing(page: str, containing: str) -> str:
 
 def make(name: str) -> Path:
     """Fly the picture's listing and keep its plot."""
-    page, containing, (old, new), options = SOURCES[name]
+    page, containing, (old, new), options, filename = SOURCES[name]
     with tempfile.TemporaryDirectory(prefix="mcs-pictures-") as tmp:
-        test = Path(tmp) / "test_picture.py"
+        test = Path(tmp) / filename
         test.write_text(listing(page, containing).replace(old, new))
         artifacts = Path(tmp) / "artifacts"
         subprocess.run(
