@@ -483,7 +483,13 @@ def fleet_rows(data: dict[str, Any]) -> list[Row]:
                 ratio=exp,
                 target=f"linear (<= {linear})" if level == "low" else "",
                 met=exp <= linear if level == "low" else None,
-                limit=""
+                limit=(
+                    "the encounter monitor measures every pair each period in Python, "
+                    f"n(n-1)/2 of them ({last['vehicles'] * (last['vehicles'] - 1) // 2} at "
+                    f"{last['vehicles']} vehicles), and publishes each pair's sample"
+                    if exp > linear
+                    else ""
+                )
                 if level == "low"
                 else "each vehicle's autopilot is a process of its own and the world steps "
                 "every body: past 2 vehicles the 2 cores are shared by more runnable processes",
