@@ -39,7 +39,8 @@ def test_every_public_error_is_a_multicosim_error_exported_from_the_package() ->
 
 def test_the_documented_tree_names_every_error_once() -> None:
     doc = _errors.__doc__ or ""
-    drawn = re.findall(r"^    (?:[│ ]*[├└]── )?([A-Z]\w+)", doc, re.M)
+    (tree,) = re.findall(r"^```text\n(.*?)^```", doc, re.M | re.S)
+    drawn = re.findall(r"^(?:[│ ]*[├└]── )?([A-Z]\w+)", tree, re.M)
     assert sorted(drawn) == sorted(_public_exceptions())
 
 
